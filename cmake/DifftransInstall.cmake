@@ -1,0 +1,19 @@
+# Install rules and the package config, so that an installed copy is found
+# with find_package(difftrans) and linked as difftrans::difftrans.
+include(CMakePackageConfigHelpers)
+
+install(DIRECTORY include/difftrans DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+install(TARGETS difftrans EXPORT difftransTargets)
+install(EXPORT difftransTargets NAMESPACE difftrans:: DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/difftrans)
+
+configure_package_config_file(
+  ${CMAKE_CURRENT_SOURCE_DIR}/cmake/difftransConfig.cmake.in
+  ${CMAKE_CURRENT_BINARY_DIR}/difftransConfig.cmake
+  INSTALL_DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/difftrans)
+write_basic_package_version_file(
+  ${CMAKE_CURRENT_BINARY_DIR}/difftransConfigVersion.cmake
+  VERSION ${PROJECT_VERSION} COMPATIBILITY SameMinorVersion ARCH_INDEPENDENT)
+install(FILES
+  ${CMAKE_CURRENT_BINARY_DIR}/difftransConfig.cmake
+  ${CMAKE_CURRENT_BINARY_DIR}/difftransConfigVersion.cmake
+  DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/difftrans)
