@@ -4,5 +4,6 @@
 #include "difftrans/ad/dual.hpp"
 #include "difftrans/ad/glm.hpp"
 #include "difftrans/ad/math.hpp"
+#include "difftrans/ad/params.hpp"
 #include "difftrans/ad/tape.hpp"
 #include "difftrans/ad/traits.hpp"

@@ -1,0 +1,133 @@
+// Differentiable parameter buffers. The scene reads every unknown (vertex
+// coordinates, IoR, absorption voxels, environment texels) through a
+// ParamReader<S>, which hands it out as the scalar of the pass:
+//   float/double  a plain load;
+//   Dual<T, N>    the value with tangent lanes taken from per-lane direction
+//                 buffers (directional derivatives along chosen parameters);
+//   Var<T>        a fresh leaf on the caller's tape, logged so that after the
+//                 backward pass scatter() adds its adjoint into the buffer's
+//                 gradient array.
+// Only the parameters a ray touches become leaves, so a tape stays small.
+#pragma once
+
+#include <cstdint>
+
+#include "difftrans/ad/dual.hpp"
+#include "difftrans/ad/tape.hpp"
+
+namespace difftrans::ad {
+
+inline constexpr int max_param_buffers = 8;
+inline constexpr int max_tangent_lanes = 8;
+
+// One flat array of parameters (e.g. all vertex coordinates, x y z interleaved).
+struct ParamBuffer {
+  const float* values = nullptr;
+  std::int32_t size = 0;
+  float* gradient = nullptr;                            // reverse mode: adjoints are added here
+  const float* tangents[max_tangent_lanes] = {nullptr};  // forward mode: lane l direction, or null (0)
+};
+
+// The buffers of one scene, addressed by a small id each.
+struct ParamSet {
+  ParamBuffer buffers[max_param_buffers];
+};
+
+namespace detail {
+// Lock-free add of a float or double, for gradients scattered by many threads.
+template <class T>
+DT_HOST_DEVICE inline void atomic_add(T* p, T v) {
+#if DT_DEVICE_PASS
+  atomicAdd(p, v);
+#else
+  T expected = *p, desired;
+  do {
+    desired = expected + v;
+  } while (!__atomic_compare_exchange(p, &expected, &desired, true, __ATOMIC_RELAXED, __ATOMIC_RELAXED));
+#endif
+}
+}  // namespace detail
+
+// Plain scalars: loads.
+template <class S>
+class ParamReader {
+ public:
+  DT_HOST_DEVICE explicit ParamReader(const ParamSet* set) : set_(set) {}
+  DT_HOST_DEVICE S read(int buffer, std::int32_t index) { return S(set_->buffers[buffer].values[index]); }
+
+ private:
+  const ParamSet* set_;
+};
+
+// Forward mode: each lane l carries the direction tangents[l].
+template <class T, int N>
+class ParamReader<Dual<T, N>> {
+ public:
+  DT_HOST_DEVICE explicit ParamReader(const ParamSet* set) : set_(set) {}
+  DT_HOST_DEVICE Dual<T, N> read(int buffer, std::int32_t index) {
+    const ParamBuffer& b = set_->buffers[buffer];
+    Dual<T, N> v(b.values[index]);
+    for (int l = 0; l < N && l < max_tangent_lanes; ++l)
+      if (b.tangents[l]) v.grad[l] = T(b.tangents[l][index]);
+    return v;
+  }
+
+ private:
+  const ParamSet* set_;
+};
+
+// One leaf handed out by a reverse-mode reader.
+struct LeafRecord {
+  std::int32_t buffer;
+  std::int32_t index;
+  std::int32_t node;
+};
+
+// Reverse mode: leaves on the caller's tape, logged in a caller-owned array.
+template <class T>
+class ParamReader<Var<T>> {
+ public:
+  DT_HOST_DEVICE ParamReader(const ParamSet* set, Tape<T>* tape, LeafRecord* log, std::int32_t log_capacity)
+      : set_(set), tape_(tape), log_(log), capacity_(log_capacity) {}
+
+  DT_HOST_DEVICE Var<T> read(int buffer, std::int32_t index) {
+    const Var<T> v = tape_->variable(T(set_->buffers[buffer].values[index]));
+    if (count_ < capacity_) {
+      log_[count_++] = LeafRecord{buffer, index, v.index};
+    } else {
+      overflow_ = true;
+    }
+    return v;
+  }
+
+  // After tape->backward / propagate: adds every logged leaf's adjoint, times
+  // `scale`, into its buffer's gradient (atomically), then clears the log.
+  DT_HOST_DEVICE void scatter(T scale = T(1)) {
+    for (std::int32_t k = 0; k < count_; ++k) {
+      const LeafRecord& r = log_[k];
+      float* g = set_->buffers[r.buffer].gradient;
+      const T a = tape_->adjoint(Var<T>(T(0), r.node, tape_));
+      if (g && a != T(0)) detail::atomic_add(g + r.index, float(a * scale));
+    }
+    count_ = 0;
+  }
+
+  // Forget the log without scattering (e.g. when the tape is rewound).
+  DT_HOST_DEVICE void clear() {
+    count_ = 0;
+    overflow_ = false;
+  }
+  DT_HOST_DEVICE std::int32_t size() const { return count_; }
+  DT_HOST_DEVICE bool overflowed() const { return overflow_; }
+  DT_HOST_DEVICE Tape<T>* tape() const { return tape_; }
+
+ private:
+  const ParamSet* set_;
+  Tape<T>* tape_;
+  LeafRecord* log_;
+  std::int32_t capacity_;
+  std::int32_t count_ = 0;
+  bool overflow_ = false;
+};
+
+}  // namespace difftrans::ad
