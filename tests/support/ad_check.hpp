@@ -59,6 +59,9 @@ double derivative(F&& f, double x, double* value = nullptr) {
   }
 }
 
+// The value of a vector of any scalar, in double.
+template <class V> Vec3d to_d(const V& v) { return Vec3d(ad::value_of(v)); }
+
 // Relative-or-absolute closeness.
 inline bool close(double a, double b, double rel) {
   return std::abs(a - b) <= rel * std::max(1.0, std::max(std::abs(a), std::abs(b)));

@@ -39,11 +39,13 @@ DT_HOST_DEVICE DT_FORCEINLINE Snell<S> snell(const S& cos_theta_i, const S& eta)
   s.cos_i = s.flipped ? -c : c;
   s.eta_it = s.flipped ? S(1) / eta : eta;
   s.eta_ti = s.flipped ? eta : S(1) / eta;
-  const S sin2_i = max(S(0), S(1) - s.cos_i * s.cos_i);
-  const S sin2_t = sin2_i * (s.eta_ti * s.eta_ti);
-  s.tir = sin2_t >= 1;
-  // safe_sqrt: finite derivative as sin²θ_t → 1 (the TIR boundary)
-  s.cos_t = s.tir ? S(0) : safe_sqrt(S(1) - sin2_t);
+  // cos²θ_t = 1 − η_ti² sin²θ_i, arranged as η_ti² cos²θ_i + (1 − η_ti²) so
+  // that it is exact for η = 1 and has no cancellation near grazing incidence.
+  const S eta2 = s.eta_ti * s.eta_ti;
+  const S cos2_t = eta2 * (s.cos_i * s.cos_i) + (S(1) - eta2);
+  s.tir = cos2_t < 0;
+  // safe_sqrt: finite derivative as cos²θ_t → 0 (the TIR boundary)
+  s.cos_t = s.tir ? S(0) : safe_sqrt(cos2_t);
   return s;
 }
 
