@@ -12,8 +12,9 @@
 namespace difftrans::ad {
 
 // One recorded operation: up to two parents with their partial derivatives.
-// Index 0 is the tape's sink: constants and unused parent slots point there,
-// so the backward sweep needs no branch.
+// An unused parent slot points at the node itself with partial 0, so the
+// backward sweep needs no branch and never funnels unrelated nodes through
+// one memory cell. Index 0 is the tape's sink, the index of constants.
 template <class T>
 struct Node {
   std::int32_t a, b;
@@ -74,7 +75,7 @@ class Tape {
   }
 
   // A new leaf (independent variable).
-  DT_HOST_DEVICE Var<T> variable(T v) { return Var<T>(v, push(0, T(0), 0, T(0)), this); }
+  DT_HOST_DEVICE Var<T> variable(T v) { return Var<T>(v, push_unary(size_, T(0)), this); }
 
   // Records one node; on overflow sets the flag and returns the sink, so the
   // result acts as a constant and the caller can detect it via overflowed().
@@ -84,7 +85,11 @@ class Tape {
       return 0;
     }
     nodes_[size_] = Node<T>{a, b, da, db};
-    return size_++;
+    return std::int32_t(size_++);
+  }
+  // One parent; the second slot points at the new node itself.
+  DT_HOST_DEVICE DT_FORCEINLINE std::int32_t push_unary(std::int32_t a, T da) {
+    return push(a, da, std::int32_t(size_), T(0));
   }
 
   // Reverse sweep from y with seed 1. Adjoints of all recorded nodes are
@@ -101,18 +106,26 @@ class Tape {
   // Vector-Jacobian products: zero_adjoints(), seed(y_k, w_k) for each output,
   // then propagate().
   DT_HOST_DEVICE void zero_adjoints() {
-    for (std::int32_t i = 0; i < size_; ++i) adjoints_[i] = T(0);
+    for (std::ptrdiff_t i = 0; i < size_; ++i) adjoints_[i] = T(0);
   }
   DT_HOST_DEVICE void seed(const Var<T>& y, T w) {
     if (y.tape == this) adjoints_[y.index] += w;
   }
-  DT_HOST_DEVICE void propagate() { propagate(size_ - 1); }
+  DT_HOST_DEVICE void propagate() { propagate(std::int32_t(size_ - 1)); }
   DT_HOST_DEVICE void propagate(std::int32_t from) {
+    // Most nodes feed the node recorded just before them: that contribution
+    // is carried in a register instead of a store and a reload, which would
+    // put a store-to-load forwarding delay on the critical path of every node.
+    T carry = T(0);
     for (std::int32_t i = from; i > 0; --i) {
-      const T g = adjoints_[i];
+      const T g = adjoints_[i] + carry;
       const Node<T> n = nodes_[i];
-      adjoints_[n.a] += n.da * g;
+      const T ca = n.da * g;
+      const bool chained = n.a == i - 1;
+      carry = chained ? ca : T(0);
+      if (!chained) adjoints_[n.a] += ca;
       adjoints_[n.b] += n.db * g;
+      adjoints_[i] = g;  // last: overwrites what a self-pointing slot added (0 · inf would be NaN)
     }
   }
 
@@ -124,7 +137,7 @@ class Tape {
   // Forget every node (keeps the buffer). Clears the overflow flag.
   DT_HOST_DEVICE void reset() { rewind(1); }
   // Checkpoints: record shared leaves once, then rewind to the mark per work item.
-  DT_HOST_DEVICE std::int32_t mark() const { return size_; }
+  DT_HOST_DEVICE std::int32_t mark() const { return std::int32_t(size_); }
   DT_HOST_DEVICE void rewind(std::int32_t m) {
     size_ = m < 1 ? 1 : m;
     overflow_ = false;
@@ -132,8 +145,8 @@ class Tape {
     adjoints_[0] = T(0);
   }
 
-  DT_HOST_DEVICE std::int32_t size() const { return size_; }
-  DT_HOST_DEVICE std::int32_t capacity() const { return capacity_; }
+  DT_HOST_DEVICE std::int32_t size() const { return std::int32_t(size_); }
+  DT_HOST_DEVICE std::int32_t capacity() const { return std::int32_t(capacity_); }
   DT_HOST_DEVICE bool overflowed() const { return overflow_; }
   DT_HOST_DEVICE std::size_t bytes_used() const { return std::size_t(size_) * bytes_per_node; }
 
@@ -148,8 +161,10 @@ class Tape {
   unsigned char* storage_ = nullptr;
   Node<T>* nodes_ = nullptr;
   T* adjoints_ = nullptr;
-  std::int32_t size_ = 0;
-  std::int32_t capacity_ = 0;
+  // Wider than the node indices on purpose: a store into a Node cannot then
+  // alias the counters, so they stay in registers while recording.
+  std::ptrdiff_t size_ = 0;
+  std::ptrdiff_t capacity_ = 0;
   bool overflow_ = false;
 };
 
@@ -165,14 +180,14 @@ namespace detail {
 template <class T>
 DT_HOST_DEVICE DT_FORCEINLINE Var<T> unary(const Var<T>& x, T v, T dx) {
   if (!x.tape) return Var<T>(v);
-  return Var<T>(v, x.tape->push(x.index, dx, 0, T(0)), x.tape);
+  return Var<T>(v, x.tape->push_unary(x.index, dx), x.tape);
 }
 
 template <class T>
 DT_HOST_DEVICE DT_FORCEINLINE Var<T> binary(const Var<T>& a, const Var<T>& b, T v, T da, T db) {
-  Tape<T>* t = a.tape ? a.tape : b.tape;
-  if (!t) return Var<T>(v);
-  return Var<T>(v, t->push(a.index, da, b.index, db), t);
+  if (!a.tape) return unary(b, v, db);  // a constant side records no edge
+  if (!b.tape) return unary(a, v, da);
+  return Var<T>(v, a.tape->push(a.index, da, b.index, db), a.tape);
 }
 
 }  // namespace detail

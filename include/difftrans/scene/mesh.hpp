@@ -1,0 +1,332 @@
+// Triangle mesh for the tracer: vertex positions (a flat xyz array, optionally
+// a parameter buffer), vertex normals as DiffTrans defines them, and the hit
+// re-evaluated on one triangle in S (Möller–Trumbore, point, shading normal).
+#pragma once
+
+#include <cstdint>
+#include <limits>
+#include <utility>
+#include <vector>
+
+#include "difftrans/ad/glm.hpp"
+#include "difftrans/ad/params.hpp"
+#include "difftrans/scene/param_source.hpp"
+
+namespace difftrans::scene {
+
+// Vertex normal (the paper): the mean of the unit normals of the faces around
+// the vertex, normalized. Faces are counter-clockwise seen from the side the
+// normal points to. Zero-area faces have no normal and are left out; a vertex
+// whose face normals cancel gets the zero vector (the shading normal then
+// falls back to the geometric one).
+//
+// Gradients through normals: a vertex normal depends on the vertex's whole
+// one-ring. For rendering (plain S, or frozen positions) the normals come
+// from the precomputed float array. When S carries derivatives and the
+// positions are differentiable, the normals of the hit triangle's three
+// vertices are recomputed in S from their one-rings (CSR vertex -> faces
+// adjacency stored in the mesh), so the shading normal's derivative reaches
+// every vertex of those rings. Both are computed by the same code, so their
+// values agree. Positions read once are cached per hit (a small fixed cache),
+// so a shared vertex becomes one leaf.
+
+// A non-owning view of a mesh, copyable to a device. Arrays:
+// positions 3 * num_vertices (x y z), triangles 3 * num_triangles,
+// vertex_normals 3 * num_vertices, vf_offsets num_vertices + 1 and vf_faces:
+// the faces around vertex v are vf_faces[vf_offsets[v] .. vf_offsets[v + 1]).
+struct MeshView {
+  ParamSource positions;
+  const std::int32_t* triangles = nullptr;
+  const float* vertex_normals = nullptr;
+  const std::int32_t* vf_offsets = nullptr;
+  const std::int32_t* vf_faces = nullptr;
+  std::int32_t num_vertices = 0;
+  std::int32_t num_triangles = 0;
+};
+
+enum class NormalMode : int {
+  automatic,    // one_ring when S carries derivatives and positions are differentiable, else precomputed
+  precomputed,  // the float array (constants: no derivative through normals)
+  one_ring,     // recomputed in S from the one-rings
+};
+
+// Result of Möller–Trumbore in S.
+template <class S>
+struct TriangleHit {
+  S t, b1, b2;  // ray parameter and barycentrics of p1, p2 (p = (1-b1-b2) p0 + b1 p1 + b2 p2); 0 when !valid
+  bool valid;   // the triangle is not degenerate and the ray not parallel to it (values finite)
+  bool inside;  // valid, b1 >= 0, b2 >= 0, b1 + b2 <= 1 and t >= 0 (on values)
+};
+
+// A point on the surface in S.
+template <class S>
+struct SurfacePoint {
+  Vec3<S> p;   // position
+  Vec3<S> n;   // unit shading normal (interpolated vertex normals)
+  Vec3<S> ng;  // unit geometric normal (winding order); zero when !valid
+  bool valid;  // the triangle has a non-zero area
+};
+
+// A ray's hit re-evaluated on a given triangle in S.
+template <class S>
+struct SurfaceHit {
+  TriangleHit<S> hit;
+  SurfacePoint<S> point;
+};
+
+// Relative threshold below which |det| counts as degenerate (zero area, or a
+// ray parallel to the triangle's plane).
+template <class T> inline constexpr T triangle_det_eps = T(8) * std::numeric_limits<T>::epsilon();
+
+// Möller–Trumbore: where the ray o + t d meets the plane of (p0, p1, p2), with
+// barycentrics, generic over S. Degenerate input gives valid = false and
+// zeros, never NaN.
+template <class S>
+DT_HOST_DEVICE TriangleHit<S> intersect_triangle(const Vec3<S>& o, const Vec3<S>& d, const Vec3<S>& p0,
+                                                 const Vec3<S>& p1, const Vec3<S>& p2) {
+  using T = ad::scalar_t<S>;
+  TriangleHit<S> h{S(0), S(0), S(0), false, false};
+  const Vec3<S> e1 = p1 - p0, e2 = p2 - p0;
+  const Vec3<S> pv = glm::cross(d, e2);
+  const S det = glm::dot(e1, pv);
+  const Vec3<T> e1v = value_of(e1), e2v = value_of(e2), dv = value_of(d);
+  const T scale = sqrt(glm::dot(e1v, e1v) * glm::dot(e2v, e2v) * glm::dot(dv, dv));
+  const T detv = value_of(det);
+  if (!(abs(detv) > triangle_det_eps<T> * scale) || !isfinite(detv) || !isfinite(scale)) return h;
+  const S inv = S(1) / det;
+  const Vec3<S> s = o - p0;
+  const Vec3<S> qv = glm::cross(s, e1);
+  h.b1 = glm::dot(s, pv) * inv;
+  h.b2 = glm::dot(d, qv) * inv;
+  h.t = glm::dot(e2, qv) * inv;
+  h.valid = isfinite(value_of(h.t)) && isfinite(value_of(h.b1)) && isfinite(value_of(h.b2));
+  if (!h.valid) {
+    h.t = h.b1 = h.b2 = S(0);
+    return h;
+  }
+  h.inside = h.b1 >= 0 && h.b2 >= 0 && value_of(h.b1) + value_of(h.b2) <= T(1) && h.t >= 0;
+  return h;
+}
+
+namespace detail {
+
+// Vertex positions read at most once per hit; beyond its capacity a read is
+// simply repeated (correct, only more leaves).
+template <class S, int N = 24>
+struct PositionCache {
+  std::int32_t id[N];
+  Vec3<S> p[N];
+  int count = 0;
+
+  template <class Reader>
+  DT_HOST_DEVICE Vec3<S> get(Reader& reader, const MeshView& m, std::int32_t v) {
+    for (int k = 0; k < count; ++k)
+      if (id[k] == v) return p[k];
+    const Vec3<S> q = load3<S>(reader, m.positions, v);
+    if (count < N) {
+      id[count] = v;
+      p[count] = q;
+      ++count;
+    }
+    return q;
+  }
+};
+
+// cross(p1 - p0, p2 - p0), its unit vector, or false for zero area.
+template <class S>
+DT_HOST_DEVICE bool unit_face_normal(const Vec3<S>& p0, const Vec3<S>& p1, const Vec3<S>& p2, Vec3<S>& n) {
+  using T = ad::scalar_t<S>;
+  const Vec3<S> c = glm::cross(p1 - p0, p2 - p0);
+  const S len2 = glm::dot(c, c);
+  if (!(value_of(len2) > T(0)) || !isfinite(value_of(len2))) return false;
+  n = c * (S(1) / sqrt(len2));
+  return true;
+}
+
+// v / |v|, or false (v unchanged) when v is zero.
+template <class S>
+DT_HOST_DEVICE bool normalize_nonzero(Vec3<S>& v) {
+  using T = ad::scalar_t<S>;
+  const S len2 = glm::dot(v, v);
+  if (!(value_of(len2) > T(0)) || !isfinite(value_of(len2))) return false;
+  v = v * (S(1) / sqrt(len2));
+  return true;
+}
+
+template <class S, class Reader, int N>
+DT_HOST_DEVICE Vec3<S> vertex_normal_cached(Reader& reader, const MeshView& m, std::int32_t v,
+                                            PositionCache<S, N>& cache) {
+  Vec3<S> sum(S(0), S(0), S(0));
+  if (!m.vf_offsets) return sum;
+  const std::int32_t end = m.vf_offsets[v + 1];
+  for (std::int32_t k = m.vf_offsets[v]; k < end; ++k) {
+    const std::int32_t* tri = m.triangles + 3 * m.vf_faces[k];
+    Vec3<S> n;
+    if (unit_face_normal(cache.get(reader, m, tri[0]), cache.get(reader, m, tri[1]), cache.get(reader, m, tri[2]), n))
+      sum += n;
+  }
+  if (!normalize_nonzero(sum)) return Vec3<S>(S(0), S(0), S(0));
+  return sum;
+}
+
+}  // namespace detail
+
+// The three vertex positions of triangle `tri`, read through the reader.
+template <class S, class Reader>
+DT_HOST_DEVICE void triangle_positions(Reader& reader, const MeshView& m, std::int32_t tri, Vec3<S> p[3]) {
+  for (int k = 0; k < 3; ++k) p[k] = load3<S>(reader, m.positions, m.triangles[3 * tri + k]);
+}
+
+// The normal of vertex v recomputed in S from its one-ring (needs the adjacency).
+template <class S, class Reader>
+DT_HOST_DEVICE Vec3<S> vertex_normal(Reader& reader, const MeshView& m, std::int32_t v) {
+  detail::PositionCache<S> cache;
+  return detail::vertex_normal_cached(reader, m, v, cache);
+}
+
+namespace detail {
+
+template <class S>
+DT_HOST_DEVICE bool use_one_ring(const MeshView& m, NormalMode mode) {
+  if (mode == NormalMode::one_ring) return m.vf_offsets != nullptr;
+  if (mode == NormalMode::precomputed) return m.vertex_normals == nullptr && m.vf_offsets != nullptr;
+  return (m.vertex_normals == nullptr || (ad::is_ad_v<S> && m.positions.differentiable())) &&
+         m.vf_offsets != nullptr;
+}
+
+template <class S, class Reader, int N>
+DT_HOST_DEVICE SurfacePoint<S> surface_point_cached(Reader& reader, const MeshView& m, std::int32_t tri,
+                                                    const S& b1, const S& b2, NormalMode mode,
+                                                    PositionCache<S, N>& cache) {
+  using T = ad::scalar_t<S>;
+  const std::int32_t* idx = m.triangles + 3 * tri;
+  const Vec3<S> p0 = cache.get(reader, m, idx[0]), p1 = cache.get(reader, m, idx[1]),
+                p2 = cache.get(reader, m, idx[2]);
+  const S b0 = T(1) - b1 - b2;
+  SurfacePoint<S> sp;
+  sp.p = p0 * b0 + p1 * b1 + p2 * b2;
+  sp.valid = unit_face_normal(p0, p1, p2, sp.ng);
+  if (!sp.valid) sp.ng = Vec3<S>(S(0), S(0), S(0));
+  Vec3<S> vn[3];
+  if (use_one_ring<S>(m, mode)) {
+    for (int k = 0; k < 3; ++k) vn[k] = vertex_normal_cached(reader, m, idx[k], cache);
+  } else if (m.vertex_normals) {
+    for (int k = 0; k < 3; ++k) {
+      const float* q = m.vertex_normals + 3 * idx[k];
+      vn[k] = Vec3<S>(S(q[0]), S(q[1]), S(q[2]));
+    }
+  } else {
+    for (int k = 0; k < 3; ++k) vn[k] = sp.ng;
+  }
+  sp.n = vn[0] * b0 + vn[1] * b1 + vn[2] * b2;
+  if (!normalize_nonzero(sp.n)) sp.n = sp.ng;
+  return sp;
+}
+
+}  // namespace detail
+
+// Position, shading normal and geometric normal at barycentrics (b1, b2) of
+// triangle `tri`, generic over S. Vertices are re-read through the reader.
+template <class S, class Reader>
+DT_HOST_DEVICE SurfacePoint<S> surface_point(Reader& reader, const MeshView& m, std::int32_t tri, const S& b1,
+                                             const S& b2, NormalMode mode = NormalMode::automatic) {
+  detail::PositionCache<S> cache;
+  return detail::surface_point_cached(reader, m, tri, b1, b2, mode, cache);
+}
+
+// The hit of ray (o, d) on triangle `tri` (chosen in float by a BVH),
+// re-evaluated in S: t and barycentrics by Möller–Trumbore on the re-read
+// vertices, then the surface point there. Edge and vertex hits are ordinary
+// (no range test is applied); hit.valid is false for a degenerate triangle.
+template <class S, class Reader>
+DT_HOST_DEVICE SurfaceHit<S> reevaluate_hit(Reader& reader, const MeshView& m, std::int32_t tri, const Vec3<S>& o,
+                                            const Vec3<S>& d, NormalMode mode = NormalMode::automatic) {
+  detail::PositionCache<S> cache;
+  const std::int32_t* idx = m.triangles + 3 * tri;
+  SurfaceHit<S> r;
+  r.hit = intersect_triangle(o, d, cache.get(reader, m, idx[0]), cache.get(reader, m, idx[1]),
+                             cache.get(reader, m, idx[2]));
+  r.point = detail::surface_point_cached(reader, m, tri, r.hit.b1, r.hit.b2, mode, cache);
+  if (!r.hit.valid) r.point.valid = false;
+  return r;
+}
+
+// ------------------------------------------------------------ host owner
+
+// Owns a mesh's arrays, builds the vertex -> faces adjacency and the
+// precomputed normals. Call update_normals() after changing positions.
+class TriangleMesh {
+ public:
+  std::vector<float> positions;          // 3 per vertex
+  std::vector<std::int32_t> triangles;   // 3 per triangle
+  std::vector<float> vertex_normals;     // 3 per vertex
+  std::vector<std::int32_t> vf_offsets;  // num_vertices + 1
+  std::vector<std::int32_t> vf_faces;
+
+  TriangleMesh() = default;
+  TriangleMesh(std::vector<float> pos, std::vector<std::int32_t> tris)
+      : positions(std::move(pos)), triangles(std::move(tris)) {
+    build_adjacency();
+    update_normals();
+  }
+
+  std::int32_t num_vertices() const { return std::int32_t(positions.size() / 3); }
+  std::int32_t num_triangles() const { return std::int32_t(triangles.size() / 3); }
+
+  // CSR vertex -> faces (faces in increasing order around each vertex).
+  void build_adjacency() {
+    const std::int32_t nv = num_vertices(), nt = num_triangles();
+    vf_offsets.assign(std::size_t(nv) + 1, 0);
+    for (std::int32_t f = 0; f < nt; ++f)
+      for (int k = 0; k < 3; ++k) ++vf_offsets[std::size_t(triangles[3 * f + k]) + 1];
+    for (std::int32_t v = 0; v < nv; ++v) vf_offsets[v + 1] += vf_offsets[v];
+    vf_faces.assign(std::size_t(vf_offsets[nv]), 0);
+    std::vector<std::int32_t> fill(vf_offsets.begin(), vf_offsets.end() - 1);
+    for (std::int32_t f = 0; f < nt; ++f)
+      for (int k = 0; k < 3; ++k) {
+        const std::int32_t v = triangles[3 * f + k];
+        // a face that names the same vertex twice is listed once
+        if (k > 0 && triangles[3 * f] == v) continue;
+        if (k > 1 && triangles[3 * f + 1] == v) continue;
+        vf_faces[fill[v]++] = f;
+      }
+    // drop the slots left empty by repeated vertices
+    std::vector<std::int32_t> packed;
+    packed.reserve(vf_faces.size());
+    std::vector<std::int32_t> offsets(std::size_t(nv) + 1, 0);
+    for (std::int32_t v = 0; v < nv; ++v) {
+      for (std::int32_t k = vf_offsets[v]; k < fill[v]; ++k) packed.push_back(vf_faces[k]);
+      offsets[v + 1] = std::int32_t(packed.size());
+    }
+    vf_faces.swap(packed);
+    vf_offsets.swap(offsets);
+  }
+
+  // Recomputes the float vertex normals from the positions (same code as the
+  // generic path, so the values match what one_ring gives in float).
+  void update_normals() {
+    vertex_normals.assign(positions.size(), 0.0f);
+    const MeshView m = view();
+    ad::ParamReader<float> unused(nullptr);  // the positions are read as constants
+    for (std::int32_t v = 0; v < num_vertices(); ++v) {
+      const Vec3f n = vertex_normal<float>(unused, m, v);
+      for (int c = 0; c < 3; ++c) vertex_normals[std::size_t(3 * v + c)] = n[c];
+    }
+  }
+
+  // The view for the generic path; position_buffer >= 0 makes the positions
+  // that parameter buffer of the pass's ParamSet.
+  MeshView view(int position_buffer = -1) const {
+    MeshView m;
+    m.positions = ParamSource{positions.data(), std::int32_t(positions.size()), position_buffer};
+    m.triangles = triangles.data();
+    m.vertex_normals = vertex_normals.size() == positions.size() ? vertex_normals.data() : nullptr;
+    m.vf_offsets = vf_offsets.empty() ? nullptr : vf_offsets.data();
+    m.vf_faces = vf_faces.data();
+    m.num_vertices = num_vertices();
+    m.num_triangles = num_triangles();
+    return m;
+  }
+};
+
+}  // namespace difftrans::scene
