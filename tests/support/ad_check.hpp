@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <limits>
+#include <string>
 #include <vector>
 
 #include "difftrans/difftrans.hpp"
@@ -68,3 +69,15 @@ inline bool close(double a, double b, double rel) {
 }
 
 }  // namespace dt_test
+
+namespace doctest {
+// Vectors print as (x, y, z) in failure messages.
+template <glm::length_t L, class T, glm::qualifier Q>
+struct StringMaker<glm::vec<L, T, Q>> {
+  static String convert(const glm::vec<L, T, Q>& v) {
+    std::string s = "(";
+    for (glm::length_t i = 0; i < L; ++i) s += (i ? ", " : "") + std::to_string(double(difftrans::ad::value_of(v[i])));
+    return String((s + ")").c_str());
+  }
+};
+}  // namespace doctest

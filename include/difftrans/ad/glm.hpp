@@ -69,5 +69,10 @@ DT_HOST_DEVICE glm::vec<L, S, Q> lift(const glm::vec<L, T, Q>& v) {
 }  // namespace difftrans::ad
 
 namespace difftrans {
+// Brings the vector overloads above into namespace difftrans as well (the
+// scalar ones were brought in by math.hpp).
+using ad::all_finite;
+using ad::detach;
 using ad::lift;
-}
+using ad::value_of;
+}  // namespace difftrans

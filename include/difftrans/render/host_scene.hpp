@@ -1,0 +1,144 @@
+// A scene owned on the host — mesh, IoR, absorption, environment and the
+// Embree BVH — with the parameter buffers (values, gradients, tangents) that
+// the generic tracer reads its unknowns from. Examples and tests build one
+// and hand view() / params() to the passes in render/passes.hpp.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "difftrans/accel/embree.hpp"
+#include "difftrans/ad/params.hpp"
+#include "difftrans/render/tracer.hpp"
+
+namespace difftrans::render {
+
+// Parameter buffer ids of a scene.
+enum ParamId : int {
+  param_positions = 0,    // 3 per vertex
+  param_ior = 1,          // 1
+  param_absorption = 2,   // raw absorption parameters (sigma = softplus(raw))
+  param_environment = 3,  // RGB texels
+  param_count = 4,
+};
+
+class HostScene {
+ public:
+  scene::TriangleMesh mesh;
+  float ior = 1.5f;
+  // absorption: kind, raw parameters (3 for homogeneous, res³·3 for a grid) and the grid box
+  scene::AbsorptionKind absorption_kind = scene::AbsorptionKind::none;
+  std::vector<float> absorption_raw;
+  Vec3i absorption_res{2, 2, 2};
+  Vec3f absorption_lo{-0.5f}, absorption_hi{0.5f};
+  // environment: a constant colour (3 values) or width x height RGB texels
+  std::vector<float> environment{1.0f, 1.0f, 1.0f};
+  int environment_width = 0, environment_height = 0;  // 0: constant
+  // which unknowns carry derivatives (read through the reader) in AD passes
+  bool differentiate[param_count] = {true, true, true, true};
+
+  HostScene() = default;
+  HostScene(std::vector<float> positions, std::vector<std::int32_t> triangles, std::string name = "mesh")
+      : mesh(std::move(positions), std::move(triangles)), name_(std::move(name)) {
+    rebuild_accel();
+  }
+
+  // Call after changing mesh.positions (same topology): normals and BVH.
+  void positions_changed() {
+    mesh.update_normals();
+    if (accel_ && accel_->vertex_count() == mesh.num_vertices() &&
+        accel_->triangle_count() == mesh.num_triangles())
+      accel_->update_positions(mesh.positions.data());
+    else
+      rebuild_accel();
+  }
+  void rebuild_accel() {
+    accel_ = std::make_unique<accel::EmbreeScene>(mesh.positions.data(), mesh.num_vertices(), mesh.triangles.data(),
+                                                  mesh.num_triangles(), name_);
+  }
+
+  void set_homogeneous_absorption(const Vec3f& sigma) {
+    absorption_kind = scene::AbsorptionKind::homogeneous;
+    absorption_raw = {scene::raw_from_sigma(sigma.x), scene::raw_from_sigma(sigma.y), scene::raw_from_sigma(sigma.z)};
+  }
+  void set_grid_absorption(const Vec3i& res, const Vec3f& lo, const Vec3f& hi, std::vector<float> raw) {
+    absorption_kind = scene::AbsorptionKind::grid;
+    absorption_res = res;
+    absorption_lo = lo;
+    absorption_hi = hi;
+    absorption_raw = std::move(raw);
+  }
+  void set_constant_environment(const Vec3f& rgb) {
+    environment = {rgb.x, rgb.y, rgb.z};
+    environment_width = environment_height = 0;
+  }
+  void set_environment_map(std::vector<float> texels, int width, int height) {
+    environment = std::move(texels);
+    environment_width = width;
+    environment_height = height;
+  }
+
+  const accel::EmbreeScene& accel() const { return *accel_; }
+
+  // The view for the generic tracer. ad = true: the unknowns marked in
+  // `differentiate` are read through the pass's reader.
+  SceneView view(bool ad) const {
+    const auto buffer = [&](ParamId id) { return ad && differentiate[id] ? int(id) : -1; };
+    SceneView v;
+    v.mesh = mesh.view(buffer(param_positions));
+    v.ior = scene::ParamSource{&ior, 1, buffer(param_ior)};
+    switch (absorption_kind) {
+      case scene::AbsorptionKind::none: v.absorption = scene::no_absorption(); break;
+      case scene::AbsorptionKind::homogeneous:
+        v.absorption = scene::homogeneous_absorption(absorption_raw.data(), buffer(param_absorption));
+        break;
+      case scene::AbsorptionKind::grid:
+        v.absorption = scene::grid_absorption(absorption_raw.data(), absorption_res, absorption_lo, absorption_hi,
+                                              buffer(param_absorption));
+        break;
+    }
+    v.environment = environment_width > 0
+                        ? scene::equirect_environment(environment.data(), environment_width, environment_height,
+                                                      buffer(param_environment))
+                        : scene::constant_environment(environment.data(), buffer(param_environment));
+    return v;
+  }
+
+  // Values of every parameter buffer, without gradient or tangent arrays.
+  ad::ParamSet params() const {
+    ad::ParamSet set;
+    set.buffers[param_positions].values = mesh.positions.data();
+    set.buffers[param_positions].size = std::int32_t(mesh.positions.size());
+    set.buffers[param_ior].values = &ior;
+    set.buffers[param_ior].size = 1;
+    set.buffers[param_absorption].values = absorption_raw.data();
+    set.buffers[param_absorption].size = std::int32_t(absorption_raw.size());
+    set.buffers[param_environment].values = environment.data();
+    set.buffers[param_environment].size = std::int32_t(environment.size());
+    return set;
+  }
+
+ private:
+  std::string name_ = "mesh";
+  std::unique_ptr<accel::EmbreeScene> accel_;
+};
+
+// Gradient arrays for every parameter of a scene, sized to match.
+struct SceneGradient {
+  std::vector<float> positions, ior, absorption, environment;
+
+  explicit SceneGradient(const HostScene& s)
+      : positions(s.mesh.positions.size(), 0.0f), ior(1, 0.0f), absorption(s.absorption_raw.size(), 0.0f),
+        environment(s.environment.size(), 0.0f) {}
+
+  // Points the buffers of `set` at these arrays.
+  void attach(ad::ParamSet& set) {
+    set.buffers[param_positions].gradient = positions.data();
+    set.buffers[param_ior].gradient = ior.data();
+    set.buffers[param_absorption].gradient = absorption.data();
+    set.buffers[param_environment].gradient = environment.data();
+  }
+};
+
+}  // namespace difftrans::render

@@ -1,0 +1,175 @@
+// Host passes of the tracer over a camera image, on the thread pool:
+//   render_image       float radiance per pixel;
+//   render_gradient    reverse mode: given dLoss/dpixel, the gradient of the
+//                      loss w.r.t. every parameter buffer (one tape per ray,
+//                      reset after its backward pass, leaf adjoints scattered);
+//   render_derivative  forward mode: the image and its derivative along one
+//                      direction in parameter space (Dual<float, 1>).
+// Pixel values are box-filtered over n×n stratified sub-pixel positions.
+#pragma once
+
+#include <cmath>
+#include <memory>
+#include <vector>
+
+#include "difftrans/core/parallel.hpp"
+#include "difftrans/render/host_scene.hpp"
+#include "difftrans/scene/camera.hpp"
+
+namespace difftrans::render {
+
+struct PassOptions {
+  TraceSettings trace;
+  int samples_per_axis = 1;            // n: n² sub-pixel samples at the centres of an n×n grid
+  std::int32_t tape_capacity = 1 << 20;     // nodes per ray (reverse mode)
+  std::int32_t leaf_log_capacity = 1 << 16;  // parameter leaves per ray (reverse mode)
+};
+
+struct PassStats {
+  TraceStats trace;
+  std::int64_t rays = 0;
+  std::int64_t tape_nodes = 0;      // summed over rays (reverse mode)
+  std::int32_t max_tape_nodes = 0;  // largest single ray
+  std::int64_t overflowed_rays = 0; // rays whose tape or leaf log overflowed (their gradient is dropped)
+  void add(const PassStats& o) {
+    trace.add(o.trace);
+    rays += o.rays;
+    tape_nodes += o.tape_nodes;
+    max_tape_nodes = max_tape_nodes > o.max_tape_nodes ? max_tape_nodes : o.max_tape_nodes;
+    overflowed_rays += o.overflowed_rays;
+  }
+};
+
+namespace detail {
+
+// Calls f(pixel, origin, direction, weight) for every sample of every pixel
+// of rows [y0, y1).
+template <class F>
+void for_each_sample(const scene::Camera& cam, int n, std::int64_t p0, std::int64_t p1, F&& f) {
+  const float inv = 1.0f / float(n), weight = 1.0f / float(n * n);
+  for (std::int64_t pix = p0; pix < p1; ++pix) {
+    const int x = int(pix % cam.width), y = int(pix / cam.width);
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        const scene::Ray r = cam.generate_ray(x, y, (float(i) + 0.5f) * inv, (float(j) + 0.5f) * inv);
+        f(pix, r.origin, r.direction, weight);
+      }
+  }
+}
+
+// Per-worker accumulation of statistics.
+struct StatsPerWorker {
+  std::vector<PassStats> per;
+  explicit StatsPerWorker(int workers) : per(std::size_t(workers)) {}
+  PassStats total() const {
+    PassStats s;
+    for (const auto& p : per) s.add(p);
+    return s;
+  }
+};
+
+}  // namespace detail
+
+// Linear RGB radiance, width·height·3 floats, row 0 at the top.
+inline std::vector<float> render_image(const HostScene& s, const scene::Camera& cam, const PassOptions& opt = {},
+                                       PassStats* stats = nullptr) {
+  std::vector<float> image(std::size_t(cam.width) * cam.height * 3, 0.0f);
+  const SceneView view = s.view(false);
+  const ad::ParamSet params = s.params();
+  ThreadPool& pool = ThreadPool::global();
+  detail::StatsPerWorker st(pool.size());
+  pool.parallel_for(std::int64_t(cam.width) * cam.height, 64, [&](std::int64_t b, std::int64_t e, int w) {
+    ad::ParamReader<float> reader(&params);
+    PassStats& ps = st.per[std::size_t(w)];
+    detail::for_each_sample(cam, opt.samples_per_axis, b, e, [&](std::int64_t pix, Vec3f o, Vec3f d, float wt) {
+      const Vec3f L = trace<float>(view, s.accel(), reader, o, d, opt.trace, &ps.trace);
+      ++ps.rays;
+      for (int c = 0; c < 3; ++c) image[std::size_t(pix) * 3 + c] += wt * L[c];
+    });
+  });
+  if (stats) *stats = st.total();
+  return image;
+}
+
+// Adds to `grad` dLoss/dparameter for every buffer marked in s.differentiate,
+// given dLoss/dpixel (width·height·3). Returns the rendered image as well.
+inline std::vector<float> render_gradient(const HostScene& s, const scene::Camera& cam, const float* pixel_adjoint,
+                                          SceneGradient& grad, const PassOptions& opt = {},
+                                          PassStats* stats = nullptr) {
+  using V = ad::Var<float>;
+  std::vector<float> image(std::size_t(cam.width) * cam.height * 3, 0.0f);
+  const SceneView view = s.view(true);
+  ad::ParamSet params = s.params();
+  grad.attach(params);
+  ThreadPool& pool = ThreadPool::global();
+  detail::StatsPerWorker st(pool.size());
+  std::vector<std::unique_ptr<ad::Tape<float>>> tapes(std::size_t(pool.size()));
+  std::vector<std::vector<ad::LeafRecord>> logs(std::size_t(pool.size()));
+  pool.parallel_for(std::int64_t(cam.width) * cam.height, 16, [&](std::int64_t b, std::int64_t e, int w) {
+    auto& tape = tapes[std::size_t(w)];
+    auto& log = logs[std::size_t(w)];
+    if (!tape) {
+      tape = std::make_unique<ad::Tape<float>>(opt.tape_capacity);
+      log.resize(std::size_t(opt.leaf_log_capacity));
+    }
+    ad::ParamReader<V> reader(&params, tape.get(), log.data(), std::int32_t(log.size()));
+    PassStats& ps = st.per[std::size_t(w)];
+    detail::for_each_sample(cam, opt.samples_per_axis, b, e, [&](std::int64_t pix, Vec3f o, Vec3f d, float wt) {
+      tape->reset();
+      reader.clear();
+      const Vec3<V> L = trace<V>(view, s.accel(), reader, o, d, opt.trace, &ps.trace);
+      ++ps.rays;
+      ps.tape_nodes += tape->size();
+      ps.max_tape_nodes = tape->size() > ps.max_tape_nodes ? tape->size() : ps.max_tape_nodes;
+      const float* a = pixel_adjoint + std::size_t(pix) * 3;
+      for (int c = 0; c < 3; ++c) image[std::size_t(pix) * 3 + c] += wt * L[c].value;
+      if (tape->overflowed() || reader.overflowed()) {
+        ++ps.overflowed_rays;
+        reader.clear();
+        return;
+      }
+      tape->zero_adjoints();
+      for (int c = 0; c < 3; ++c) tape->seed(L[c], wt * a[c]);
+      tape->propagate();
+      reader.scatter();
+    });
+  });
+  if (stats) *stats = st.total();
+  return image;
+}
+
+// The image (value) and its derivative along `direction` (one array per
+// parameter buffer, null where the direction is zero), with Dual<float, 1>.
+struct ImageDerivative {
+  std::vector<float> value, derivative;
+};
+
+inline ImageDerivative render_derivative(const HostScene& s, const scene::Camera& cam,
+                                         const float* const direction[param_count], const PassOptions& opt = {},
+                                         PassStats* stats = nullptr) {
+  using D = ad::Dual<float, 1>;
+  ImageDerivative out;
+  out.value.assign(std::size_t(cam.width) * cam.height * 3, 0.0f);
+  out.derivative.assign(out.value.size(), 0.0f);
+  const SceneView view = s.view(true);
+  ad::ParamSet params = s.params();
+  for (int b = 0; b < param_count; ++b) params.buffers[b].tangents[0] = direction[b];
+  ThreadPool& pool = ThreadPool::global();
+  detail::StatsPerWorker st(pool.size());
+  pool.parallel_for(std::int64_t(cam.width) * cam.height, 64, [&](std::int64_t b, std::int64_t e, int w) {
+    ad::ParamReader<D> reader(&params);
+    PassStats& ps = st.per[std::size_t(w)];
+    detail::for_each_sample(cam, opt.samples_per_axis, b, e, [&](std::int64_t pix, Vec3f o, Vec3f d, float wt) {
+      const Vec3<D> L = trace<D>(view, s.accel(), reader, o, d, opt.trace, &ps.trace);
+      ++ps.rays;
+      for (int c = 0; c < 3; ++c) {
+        out.value[std::size_t(pix) * 3 + c] += wt * L[c].value;
+        out.derivative[std::size_t(pix) * 3 + c] += wt * L[c].grad[0];
+      }
+    });
+  });
+  if (stats) *stats = st.total();
+  return out;
+}
+
+}  // namespace difftrans::render

@@ -1,0 +1,175 @@
+// The recursive differentiable tracer of DiffTrans stage 2, written once over
+// the scalar S. A camera ray is followed through a closed triangle mesh: at
+// every surface hit both the reflected and the refracted ray are traced,
+// weighted by Fresnel R and T = 1 − R (only reflection on total internal
+// reflection); segments inside the object are attenuated by Beer–Lambert;
+// rays that leave read the environment. The BVH answers in float which
+// triangle is hit; the hit is re-evaluated on that triangle in S, so radiance
+// carries derivatives to vertices, IoR, absorption and environment texels.
+#pragma once
+
+#include <cstdint>
+
+#include "difftrans/ad/glm.hpp"
+#include "difftrans/optics/interface.hpp"
+#include "difftrans/scene/absorption.hpp"
+#include "difftrans/scene/envmap.hpp"
+#include "difftrans/scene/mesh.hpp"
+
+namespace difftrans::render {
+
+// Deepest ray tree the tracer supports (the reference renders use 16).
+inline constexpr int max_trace_depth = 16;
+
+// Everything the tracer reads: non-owning views, device-copyable.
+struct SceneView {
+  scene::MeshView mesh;        // closed, outward-facing (counter-clockwise) triangles
+  scene::EnvMap environment;   // distant environment
+  scene::AbsorptionField absorption;
+  scene::ParamSource ior;      // one value: IoR of the object (the outside is 1)
+};
+
+struct TraceSettings {
+  int max_depth = 8;                // surface interactions per path; deeper branches are dropped
+  float prune_throughput = 0.0f;    // drop branches whose largest RGB weight falls below this (0: full tree)
+  scene::AbsorptionIntegration integration;  // grid absorption: exact (samples = 0) or K samples
+  scene::NormalMode normal_mode = scene::NormalMode::automatic;
+  bool smooth_normals = true;       // shade with interpolated vertex normals (the paper); false: flat facets
+};
+
+// What happened along one camera ray (counted on values).
+struct TraceStats {
+  std::int32_t segments = 0;      // rays sent to the BVH
+  std::int32_t hits = 0;          // surface interactions
+  std::int32_t tir = 0;           // total internal reflections
+  std::int32_t depth_cut = 0;     // branches dropped at max_depth
+  std::int32_t pruned = 0;        // branches dropped by the throughput threshold
+  std::int32_t fallback_hits = 0; // hits whose triangle could not be re-evaluated in S (BVH values used)
+  double cut_weight = 0;          // mean RGB weight of the dropped branches: the radiance lost, per unit radiance
+  void add(const TraceStats& o) {
+    cut_weight += o.cut_weight;
+    segments += o.segments;
+    hits += o.hits;
+    tir += o.tir;
+    depth_cut += o.depth_cut;
+    pruned += o.pruned;
+    fallback_hits += o.fallback_hits;
+  }
+};
+
+namespace detail {
+
+template <class S>
+struct Branch {
+  Vec3<S> origin, direction, weight;
+  int depth;
+};
+
+// Origin of a ray spawned at p towards `side` (±1 along the unit geometric
+// normal): moved off the surface by a bound on the float error of p, so that
+// the new ray cannot hit the triangle it leaves (Mitsuba and pbrt do the same).
+template <class S>
+DT_HOST_DEVICE Vec3<S> offset_origin(const Vec3<S>& p, const Vec3<S>& ng, float side) {
+  using T = ad::scalar_t<S>;
+  const Vec3<T> pv = value_of(p), nv = value_of(ng);
+  const T scale = T(1) + max(max(abs(pv.x), abs(pv.y)), abs(pv.z));
+  const T eps = scale * T(1.0 / (1 << 21));  // ~5e-7 (1 + |p|): 8 float ulps of |p|, as Mitsuba
+  return p + Vec3<S>(S(nv.x * eps * side), S(nv.y * eps * side), S(nv.z * eps * side));
+}
+
+template <class S>
+DT_HOST_DEVICE ad::scalar_t<S> max_component(const Vec3<S>& v) {
+  return max(max(value_of(v.x), value_of(v.y)), value_of(v.z));
+}
+
+template <class S>
+DT_HOST_DEVICE double mean_component(const Vec3<S>& v) {
+  return (double(value_of(v.x)) + double(value_of(v.y)) + double(value_of(v.z))) / 3.0;
+}
+
+}  // namespace detail
+
+// Radiance (RGB) arriving at the camera along the ray (origin, direction).
+// Accel: anything with `accel::RayHit intersect(Vec3f o, Vec3f d, float tnear,
+// float tfar) const`. Reader: the pass's parameter reader (ad/params.hpp).
+template <class S, class Accel, class Reader>
+DT_HOST_DEVICE Vec3<S> trace(const SceneView& scene, const Accel& accel, Reader& reader, const Vec3f& origin,
+                             const Vec3f& direction, const TraceSettings& settings, TraceStats* stats = nullptr) {
+  using T = ad::scalar_t<S>;
+  TraceStats local;
+  const int max_depth = settings.max_depth < max_trace_depth ? settings.max_depth : max_trace_depth;
+  const S eta = scene::load<S>(reader, scene.ior, 0);
+  const bool absorbing = scene.absorption.kind != scene::AbsorptionKind::none;
+
+  Vec3<S> radiance(S(0), S(0), S(0));
+  detail::Branch<S> stack[max_trace_depth + 2];
+  int top = 0;
+  stack[top++] = detail::Branch<S>{lift<S>(origin), lift<S>(direction), Vec3<S>(S(1), S(1), S(1)), 0};
+
+  while (top > 0) {
+    const detail::Branch<S> b = stack[--top];
+    const Vec3f o = value_of(b.origin), d = value_of(b.direction);
+    ++local.segments;
+    const auto h = accel.intersect(o, d, 0.0f, 3.4e38f);
+    if (!h.hit()) {
+      radiance += b.weight * scene::lookup(reader, scene.environment, b.direction);
+      continue;
+    }
+    ++local.hits;
+    scene::SurfaceHit<S> sh =
+        scene::reevaluate_hit(reader, scene.mesh, h.prim, b.origin, b.direction, settings.normal_mode);
+    S t = sh.hit.t;
+    if (!sh.hit.valid || !sh.point.valid) {
+      // a (nearly) degenerate triangle: keep the BVH's answer, without derivatives
+      ++local.fallback_hits;
+      t = S(h.t);
+      sh.point = scene::surface_point(reader, scene.mesh, h.prim, S(h.u), S(h.v), settings.normal_mode);
+      if (!sh.point.valid) continue;  // zero area: nothing to refract at
+    }
+    const Vec3<S> p = b.origin + b.direction * t;
+    const Vec3<S>& ng = sh.point.ng;
+    const Vec3<S> wi = -b.direction;
+    const T cos_geo = value_of(glm::dot(wi, ng));
+    // shading normal, unless it disagrees with the geometry about the side
+    const bool shading_agrees = (value_of(glm::dot(wi, sh.point.n)) > T(0)) == (cos_geo > T(0));
+    const Vec3<S> n = settings.smooth_normals && shading_agrees ? sh.point.n : ng;
+
+    Vec3<S> weight = b.weight;
+    if (cos_geo < T(0) && absorbing)  // the segment ran inside the object
+      weight = weight * scene::transmittance(reader, scene.absorption, b.origin, p, settings.integration);
+
+    if (b.depth + 1 > max_depth) {
+      ++local.depth_cut;
+      local.cut_weight += detail::mean_component(weight);
+      continue;
+    }
+    const optics::InterfaceEvent<S> ev = optics::interface_event(wi, n, eta);
+    const float incoming_side = cos_geo > T(0) ? 1.0f : -1.0f;
+
+    // the two children; a zero Fresnel weight (R at eta = 1) spawns nothing
+    if (value_of(ev.R) > T(0)) {
+      const Vec3<S> w = weight * ev.R;
+      if (detail::max_component(w) >= T(settings.prune_throughput)) {
+        stack[top++] = detail::Branch<S>{detail::offset_origin(p, ng, incoming_side), ev.wr, w, b.depth + 1};
+      } else {
+        ++local.pruned;
+        local.cut_weight += detail::mean_component(w);
+      }
+    }
+    if (ev.tir) {
+      ++local.tir;
+    } else if (value_of(ev.T) > T(0)) {
+      const Vec3<S> w = weight * ev.T;
+      if (detail::max_component(w) >= T(settings.prune_throughput)) {
+        stack[top++] = detail::Branch<S>{detail::offset_origin(p, ng, -incoming_side), ev.wt, w, b.depth + 1};
+      } else {
+        ++local.pruned;
+        local.cut_weight += detail::mean_component(w);
+      }
+    }
+  }
+  if (stats) stats->add(local);
+  return radiance;
+}
+
+}  // namespace difftrans::render

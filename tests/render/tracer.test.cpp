@@ -1,0 +1,402 @@
+// The recursive tracer against analytic oracles — a parallel plate at normal
+// and oblique incidence (closed-form series of internal reflections), a glass
+// sphere's central ray, the white furnace — its gradients against central
+// finite differences in double (vertices, IoR, homogeneous and grid
+// absorption, environment texels; sphere, cube, spot), forward against
+// reverse mode, and the hard cases, which must stay finite.
+#include "support/ad_check.hpp"
+#include "support/shapes.hpp"
+
+#include <algorithm>
+#include <numeric>
+
+#include "difftrans/render/host_scene.hpp"
+
+using namespace dt_test;
+using difftrans::render::HostScene;
+using difftrans::render::SceneGradient;
+using difftrans::render::TraceSettings;
+using difftrans::render::TraceStats;
+
+namespace {
+
+struct TestRay {
+  Vec3f o, d;
+};
+
+HostScene make_scene(const Shape& shape, float ior) {
+  HostScene s(shape.positions, shape.triangles, "test mesh");
+  s.ior = ior;
+  return s;
+}
+
+// An environment that is A towards −Z (the map's centre columns) and B
+// towards +Z (the seam columns): 8 × 2 texels, so the lookup is exactly A
+// for u in [0.3125, 0.6875] and exactly B within 0.1875 of the seam.
+void two_sided_environment(HostScene& s, const Vec3f& A, const Vec3f& B) {
+  std::vector<float> t;
+  for (int row = 0; row < 2; ++row)
+    for (int col = 0; col < 8; ++col) {
+      const Vec3f c = col >= 2 && col <= 5 ? A : B;
+      t.insert(t.end(), {c.x, c.y, c.z});
+    }
+  s.set_environment_map(t, 8, 2);
+}
+
+// A smooth, varied environment for gradient tests.
+void smooth_environment(HostScene& s, int w = 24, int h = 12) {
+  std::vector<float> t;
+  for (int row = 0; row < h; ++row)
+    for (int col = 0; col < w; ++col) {
+      const float u = (col + 0.5f) / w, v = (row + 0.5f) / h;
+      t.insert(t.end(), {0.6f + 0.4f * std::sin(6.2831853f * u), 0.5f + 0.4f * std::cos(3.14159f * v),
+                         0.3f + 0.6f * u * v});
+    }
+  s.set_environment_map(t, w, h);
+}
+
+template <class S>
+Vec3d trace_value(const HostScene& s, const TestRay& r, const TraceSettings& ts, TraceStats* st = nullptr) {
+  const ad::ParamSet params = s.params();
+  ad::ParamReader<S> reader(&params);
+  return to_d(difftrans::render::trace<S>(s.view(false), s.accel(), reader, r.o, r.d, ts, st));
+}
+
+// Loss = Σ_rays w · L(ray), in double.
+double loss(const HostScene& s, const std::vector<TestRay>& rays, const Vec3d& w, const TraceSettings& ts) {
+  double sum = 0;
+  for (const auto& r : rays) sum += glm::dot(trace_value<double>(s, r, ts), w);
+  return sum;
+}
+
+// Reverse-mode gradient of the loss in Var<double>; also reports tape sizes.
+SceneGradient loss_gradient(const HostScene& s, const std::vector<TestRay>& rays, const Vec3d& w,
+                            const TraceSettings& ts, bool* all_finite_out = nullptr) {
+  using V = ad::Var<double>;
+  SceneGradient g(s);
+  ad::ParamSet params = s.params();
+  g.attach(params);
+  ad::Tape<double> tape(1 << 20);
+  std::vector<ad::LeafRecord> log(1 << 16);
+  ad::ParamReader<V> reader(&params, &tape, log.data(), std::int32_t(log.size()));
+  bool finite = true;
+  for (const auto& r : rays) {
+    tape.reset();
+    reader.clear();
+    const Vec3<V> L = difftrans::render::trace<V>(s.view(true), s.accel(), reader, r.o, r.d, ts);
+    REQUIRE_FALSE(tape.overflowed());
+    REQUIRE_FALSE(reader.overflowed());
+    finite = finite && all_finite(L);
+    tape.zero_adjoints();
+    for (int c = 0; c < 3; ++c) tape.seed(L[c], w[c]);
+    tape.propagate();
+    reader.scatter();
+  }
+  for (auto* v : {&g.positions, &g.ior, &g.absorption, &g.environment})
+    for (float x : *v) finite = finite && std::isfinite(x);
+  if (all_finite_out) *all_finite_out = finite;
+  return g;
+}
+
+// The entries of `grad` with the largest magnitude.
+std::vector<std::size_t> largest(const std::vector<float>& grad, std::size_t count) {
+  std::vector<std::size_t> idx(grad.size());
+  std::iota(idx.begin(), idx.end(), 0);
+  std::sort(idx.begin(), idx.end(), [&](std::size_t a, std::size_t b) { return std::abs(grad[a]) > std::abs(grad[b]); });
+  idx.resize(std::min(count, idx.size()));
+  return idx;
+}
+
+// Central difference of the loss w.r.t. one float parameter.
+template <class Apply>
+double loss_difference(HostScene& s, const std::vector<TestRay>& rays, const Vec3d& w, const TraceSettings& ts,
+                       float& param, double h, Apply&& changed) {
+  const float keep = param;
+  param = float(double(keep) + h);
+  const double hp = double(param) - double(keep);
+  changed();
+  const double up = loss(s, rays, w, ts);
+  param = float(double(keep) - h);
+  const double hm = double(keep) - double(param);
+  changed();
+  const double down = loss(s, rays, w, ts);
+  param = keep;
+  changed();
+  return (up - down) / (hp + hm);
+}
+
+void check_against_differences(HostScene& s, const std::vector<TestRay>& rays, const TraceSettings& ts,
+                               const std::string what) {
+  CAPTURE(what);
+  const Vec3d w(0.7, 1.0, 1.3);
+  const SceneGradient g = loss_gradient(s, rays, w, ts);
+  const auto nothing = [] {};
+  int checked = 0, kinks = 0;
+  const auto check = [&](const std::string name, float reverse, float& param, double h, auto&& changed) {
+    CAPTURE(name);
+    // two step sizes: where they disagree the loss is not smooth at this
+    // parameter (a path changes triangle or crosses the TIR boundary within
+    // the step), and no finite difference is an oracle there
+    const double fd_h = loss_difference(s, rays, w, ts, param, h, changed);
+    const double fd_h2 = loss_difference(s, rays, w, ts, param, h / 2, changed);
+    const double scale = std::max(1.0, std::abs(fd_h2));
+    if (std::abs(fd_h - fd_h2) > 0.05 * scale) {
+      ++kinks;
+      MESSAGE(what << ": " << name << " not smooth within the step (" << fd_h << " vs " << fd_h2 << "), skipped");
+      return;
+    }
+    const double fd = (4 * fd_h2 - fd_h) / 3;  // Richardson: O(h⁴)
+    CAPTURE(reverse);
+    CAPTURE(fd);
+    CHECK(std::abs(reverse - fd) <= 2e-3 * scale);
+    ++checked;
+  };
+  check("ior", g.ior[0], s.ior, 1e-3, nothing);
+  for (std::size_t i : largest(g.positions, 8))
+    check("vertex coordinate", g.positions[i], s.mesh.positions[i], 1e-3, [&] { s.positions_changed(); });
+  for (std::size_t i : largest(g.environment, 4)) check("texel", g.environment[i], s.environment[i], 1e-2, nothing);
+  for (std::size_t i : largest(g.absorption, 6)) check("absorption", g.absorption[i], s.absorption_raw[i], 1e-3, nothing);
+  CHECK(checked >= 11);
+  CHECK(kinks <= checked / 4);
+}
+
+// Rays from a camera at `eye` towards jittered points around the origin.
+std::vector<TestRay> rays_towards_centre(const Vec3f& eye, float spread, int count) {
+  std::vector<TestRay> rays;
+  for (int i = 0; i < count; ++i) {
+    const float a = 2.399963f * float(i), r = spread * std::sqrt((i + 0.5f) / float(count));
+    const Vec3f target(r * std::cos(a), r * std::sin(a), 0.05f * float(i % 3));
+    rays.push_back({eye, glm::normalize(target - eye)});
+  }
+  return rays;
+}
+
+// Slab transfer at one interface pair: single-interface R, internal
+// transmittance a = exp(−σ path); the closed-form sums of all internal
+// reflections (Born & Wolf), up to `depth` interactions in the tracer's counting.
+struct SlabSeries {
+  double reflected = 0, transmitted = 0;
+};
+SlabSeries slab_series(double R, double a, int depth) {
+  SlabSeries s;
+  s.reflected = R;  // first interaction: reflection off the front face
+  // transmitted after k internal round trips uses 2 + 2k interactions
+  for (int k = 0; 2 + 2 * k <= depth; ++k) s.transmitted += (1 - R) * (1 - R) * std::pow(R * R * a * a, k) * a;
+  // reflected back out after k + 1 internal reflections uses 3 + 2k interactions
+  for (int k = 0; 3 + 2 * k <= depth; ++k) s.reflected += (1 - R) * (1 - R) * R * a * a * std::pow(R * R * a * a, k);
+  return s;
+}
+
+}  // namespace
+
+TEST_CASE("the test meshes are closed and outward facing") {
+  for (const Shape& sh : {make_box(0.5f, 0.3f, 0.2f), make_icosphere(0.5f, 2)}) {
+    double volume = 0;  // divergence theorem: positive for outward triangles
+    for (std::size_t f = 0; f < sh.triangles.size(); f += 3) {
+      Vec3d p[3];
+      for (int k = 0; k < 3; ++k)
+        p[k] = Vec3d(sh.positions[3 * sh.triangles[f + k]], sh.positions[3 * sh.triangles[f + k] + 1],
+                     sh.positions[3 * sh.triangles[f + k] + 2]);
+      volume += glm::dot(p[0], glm::cross(p[1], p[2])) / 6.0;
+    }
+    CHECK(volume > 0);
+  }
+}
+
+TEST_CASE("parallel plate: closed-form series at normal and oblique incidence") {
+  const double eta = 1.5, thickness = 0.2;
+  HostScene s = make_scene(make_box(5.0f, 5.0f, float(thickness / 2)), float(eta));
+  const Vec3f A(1.0f, 0.5f, 0.25f), B(0.1f, 0.2f, 0.4f);
+  two_sided_environment(s, A, B);
+  for (double sigma : {0.0, 2.0}) {
+    if (sigma > 0) s.set_homogeneous_absorption(Vec3f(float(sigma)));
+    for (double theta_deg : {0.0, 30.0, 55.0}) {
+      for (int depth : {2, 3, 8, 16}) {
+        CAPTURE(sigma);
+        CAPTURE(theta_deg);
+        CAPTURE(depth);
+        const double th = theta_deg * pi_v<double> / 180;
+        const TestRay r{Vec3f(float(-2 * std::sin(th)), 0.0f, float(2 * std::cos(th))),
+                        Vec3f(float(std::sin(th)), 0.0f, float(-std::cos(th)))};
+        TraceSettings ts;
+        ts.max_depth = depth;
+        ts.smooth_normals = false;  // a box's vertex normals would round its faces
+        const Vec3d L = trace_value<double>(s, r, ts);
+        const auto f = difftrans::optics::fresnel_dielectric(std::cos(th), eta);
+        const double cos_t = -f.cos_theta_t;
+        const double a = std::exp(-sigma * thickness / cos_t);
+        const SlabSeries series = slab_series(f.R, a, depth);
+        const Vec3d expected = series.transmitted * Vec3d(A) + series.reflected * Vec3d(B);
+        CAPTURE(L);
+        CAPTURE(expected);
+        CHECK(glm::length(L - expected) < 1e-5 * glm::length(expected));
+      }
+    }
+  }
+}
+
+TEST_CASE("a glass sphere's central ray") {
+  const double eta = 1.45, radius = 0.5;
+  HostScene s = make_scene(make_icosphere(float(radius), 4), float(eta));
+  const Vec3f A(1.0f, 0.8f, 0.6f), B(0.2f, 0.3f, 0.9f);
+  two_sided_environment(s, A, B);
+  s.set_homogeneous_absorption(Vec3f(0.5f, 1.0f, 3.0f));
+  TraceSettings ts;
+  ts.max_depth = 16;
+  const Vec3d L = trace_value<double>(s, {Vec3f(0, 0, 3), Vec3f(0, 0, -1)}, ts);
+  const double R = std::pow((eta - 1) / (eta + 1), 2);
+  const double sig[3] = {0.5, 1.0, 3.0};
+  for (int c = 0; c < 3; ++c) {
+    const SlabSeries series = slab_series(R, std::exp(-sig[c] * 2 * radius), 16);
+    // the icosphere's diameter along z is exact at a vertex; elsewhere within the tessellation
+    CHECK(L[c] == doctest::Approx(series.transmitted * A[c] + series.reflected * B[c]).epsilon(2e-3));
+  }
+}
+
+TEST_CASE("white furnace: clear glass renders the environment, absorbing glass less") {
+  for (const Shape& shape : {make_icosphere(0.5f, 3), make_box(0.3f, 0.4f, 0.25f)}) {
+    HostScene s = make_scene(shape, 1.5f);
+    const double c = double(0.8f);
+    s.set_constant_environment(Vec3f(0.8f));
+    TraceSettings ts;
+    ts.max_depth = 16;
+    int through_object = 0;
+    for (const TestRay& r : rays_towards_centre(Vec3f(0.4f, 0.9f, 3.0f), 0.6f, 200)) {
+      TraceStats st;
+      const Vec3d L = trace_value<double>(s, r, ts, &st);
+      through_object += st.hits > 0;
+      for (int k = 0; k < 3; ++k) {
+        CHECK(L[k] <= c * (1 + 1e-9));
+        CHECK(L[k] >= c * (1 - st.cut_weight) - 1e-9);  // what is missing is what the depth limit cut
+      }
+    }
+    CHECK(through_object > 100);
+    s.set_homogeneous_absorption(Vec3f(1.0f, 2.0f, 3.0f));
+    for (const TestRay& r : rays_towards_centre(Vec3f(0.4f, 0.9f, 3.0f), 0.2f, 50)) {
+      const Vec3d L = trace_value<double>(s, r, ts);
+      CHECK(L.x < c);
+      CHECK(L.z < L.x);  // more absorption, darker
+    }
+  }
+}
+
+TEST_CASE("gradients match central finite differences in double") {
+  TraceSettings ts;
+  ts.max_depth = 5;
+  SUBCASE("sphere, homogeneous absorption") {
+    HostScene s = make_scene(make_icosphere(0.5f, 3), 1.5f);
+    smooth_environment(s);
+    s.set_homogeneous_absorption(Vec3f(0.5f, 1.5f, 3.0f));
+    check_against_differences(s, rays_towards_centre(Vec3f(0.3f, 0.5f, 3.0f), 0.35f, 6), ts, "sphere");
+  }
+  SUBCASE("cube, grid absorption") {
+    Shape box = make_box(0.35f, 0.3f, 0.25f);
+    for (std::size_t i = 0; i < box.positions.size(); i += 3) {  // turn it so no face is axis-aligned
+      const float x = box.positions[i], z = box.positions[i + 2];
+      box.positions[i] = 0.8f * x + 0.6f * z;
+      box.positions[i + 2] = -0.6f * x + 0.8f * z;
+    }
+    HostScene s = make_scene(box, 1.6f);
+    smooth_environment(s);
+    std::vector<float> raw;
+    for (int i = 0; i < 4 * 4 * 4 * 3; ++i) raw.push_back(difftrans::scene::raw_from_sigma(0.5f + float(i % 7) * 0.3f));
+    s.set_grid_absorption(Vec3i(4), Vec3f(-0.6f), Vec3f(0.6f), raw);
+    check_against_differences(s, rays_towards_centre(Vec3f(0.2f, 0.6f, 3.0f), 0.2f, 5), ts, "cube");
+  }
+  SUBCASE("spot") {
+    const Shape spot = load_normalized_mesh(std::string(DIFFTRANS_SHARED_DATA_DIR) + "/meshes/spot.obj");
+    HostScene s = make_scene(spot, 1.472f);
+    smooth_environment(s);
+    s.set_homogeneous_absorption(Vec3f(0.3f, 0.6f, 1.2f));
+    ts.max_depth = 3;
+    check_against_differences(s, rays_towards_centre(Vec3f(0.0f, 0.2f, 3.0f), 0.15f, 4), ts, "spot");
+  }
+}
+
+TEST_CASE("forward and reverse mode agree") {
+  HostScene s = make_scene(make_icosphere(0.5f, 2), 1.5f);
+  smooth_environment(s);
+  s.set_homogeneous_absorption(Vec3f(0.5f, 1.0f, 2.0f));
+  TraceSettings ts;
+  ts.max_depth = 6;
+  const auto rays = rays_towards_centre(Vec3f(0.2f, 0.4f, 3.0f), 0.4f, 8);
+  const Vec3d w(1.0, 0.5, 0.25);
+  const SceneGradient g = loss_gradient(s, rays, w, ts);
+  // a direction touching every buffer
+  std::vector<float> dp(s.mesh.positions.size()), de(s.environment.size()), da(s.absorption_raw.size());
+  float di = 0.7f;
+  for (std::size_t i = 0; i < dp.size(); ++i) dp[i] = std::sin(0.37f * float(i));
+  for (std::size_t i = 0; i < de.size(); ++i) de[i] = std::cos(0.11f * float(i));
+  for (std::size_t i = 0; i < da.size(); ++i) da[i] = 0.5f - float(i);
+  double reverse = di * g.ior[0];
+  for (std::size_t i = 0; i < dp.size(); ++i) reverse += double(dp[i]) * g.positions[i];
+  for (std::size_t i = 0; i < de.size(); ++i) reverse += double(de[i]) * g.environment[i];
+  for (std::size_t i = 0; i < da.size(); ++i) reverse += double(da[i]) * g.absorption[i];
+  using D = ad::Dual<double, 1>;
+  ad::ParamSet params = s.params();
+  params.buffers[difftrans::render::param_positions].tangents[0] = dp.data();
+  params.buffers[difftrans::render::param_ior].tangents[0] = &di;
+  params.buffers[difftrans::render::param_environment].tangents[0] = de.data();
+  params.buffers[difftrans::render::param_absorption].tangents[0] = da.data();
+  ad::ParamReader<D> reader(&params);
+  double forward = 0;
+  for (const auto& r : rays) {
+    const Vec3<D> L = difftrans::render::trace<D>(s.view(true), s.accel(), reader, r.o, r.d, ts);
+    for (int c = 0; c < 3; ++c) forward += w[c] * L[c].grad[0];
+  }
+  CHECK(forward == doctest::Approx(reverse).epsilon(1e-5));
+}
+
+TEST_CASE("hard cases stay finite, values and gradients") {
+  TraceSettings ts;
+  ts.max_depth = 8;
+  const auto expect_finite = [&](HostScene& s, const std::vector<TestRay>& rays, const std::string what) {
+    CAPTURE(what);
+    for (const auto& r : rays) {
+      const Vec3d L = trace_value<float>(s, r, ts);
+      CHECK(std::isfinite(L.x + L.y + L.z));
+      CHECK(L.x >= 0);
+    }
+    bool finite = false;
+    loss_gradient(s, rays, Vec3d(1.0), ts, &finite);
+    CHECK(finite);
+  };
+  HostScene cube = make_scene(make_box(0.5f, 0.5f, 0.5f), 1.5f);
+  smooth_environment(cube);
+  // through an edge (x = z = 0.5 is where two faces meet) and a vertex; along a face diagonal
+  expect_finite(cube, {{Vec3f(2.5f, 0.1f, 2.5f), glm::normalize(Vec3f(-1, 0, -1))},
+                       {Vec3f(2, 2, 2), glm::normalize(Vec3f(-1, -1, -1))},
+                       {Vec3f(0.2f, 0.2f, 3), Vec3f(0, 0, -1)}},
+                "edge and vertex hits");
+  // grazing: tangent to the cube's top face and just inside it
+  expect_finite(cube, {{Vec3f(-3, 0.5f, 0.1f), Vec3f(1, 0, 0)}, {Vec3f(-3, 0.4999f, 0.1f), glm::normalize(Vec3f(1, -1e-4f, 0))}},
+                "grazing");
+  // total internal reflection: steep internal angles in a cube
+  expect_finite(cube, {{Vec3f(-2.0f, 0.1f, 0.3f), glm::normalize(Vec3f(1.0f, 0.05f, -0.45f))}}, "TIR");
+  // camera inside the object
+  expect_finite(cube, {{Vec3f(0.1f, -0.1f, 0.05f), glm::normalize(Vec3f(0.3f, 0.2f, -1.0f))}}, "camera inside");
+  // huge absorption: exp underflows
+  cube.set_homogeneous_absorption(Vec3f(1e6f));
+  expect_finite(cube, {{Vec3f(0.2f, 0.1f, 3), Vec3f(0, 0, -1)}}, "huge absorption");
+  cube.absorption_kind = difftrans::scene::AbsorptionKind::none;
+  // the environment's seam (+Z) and poles (±Y) as seen straight through the cube
+  expect_finite(cube, {{Vec3f(0, 0, -3), Vec3f(0, 0, 1)}, {Vec3f(0, -3, 0), Vec3f(0, 1, 0)}, {Vec3f(0, 3, 0), Vec3f(0, -1, 0)}},
+                "environment seam and poles");
+  // a degenerate (zero-area) triangle inside a closed mesh: split one face with a sliver
+  Shape sliver = make_box(0.5f, 0.5f, 0.5f);
+  sliver.positions.insert(sliver.positions.end(), {0.0f, 0.5f, 0.0f});  // centre of the top face (y = +0.5)
+  // top face quad {2, 6, 7, 3} -> a fan around the centre, plus a zero-area triangle on an edge
+  const std::int32_t c = 8;
+  for (std::size_t f = 0; f < sliver.triangles.size(); f += 3) {
+    if ((sliver.triangles[f] == 2 && sliver.triangles[f + 1] == 6) || (sliver.triangles[f] == 2 && sliver.triangles[f + 1] == 7)) {
+      sliver.triangles.erase(sliver.triangles.begin() + std::ptrdiff_t(f), sliver.triangles.begin() + std::ptrdiff_t(f) + 3);
+      f -= 3;
+    }
+  }
+  for (std::int32_t t : {2, 6, c, 6, 7, c, 7, 3, c, 3, 2, c, 2, 2, 6}) sliver.triangles.push_back(t);
+  HostScene deg = make_scene(sliver, 1.5f);
+  smooth_environment(deg);
+  expect_finite(deg, {{Vec3f(0.0f, 3.0f, 0.0f), Vec3f(0, -1, 0)}, {Vec3f(-0.5f, 3.0f, 0.2f), Vec3f(0, -1, 0)},
+                      {Vec3f(0.1f, 3.0f, -0.5f), Vec3f(0, -1, 0)}},
+                "degenerate triangle");
+}
