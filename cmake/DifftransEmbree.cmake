@@ -8,3 +8,6 @@ target_link_libraries(difftrans_embree INTERFACE difftrans::difftrans embree Thr
 set(DIFFTRANS_TEST_LIBS_accel difftrans::embree)
 set(DIFFTRANS_TEST_LIBS_render difftrans::embree)
 set(DIFFTRANS_BENCH_LIBS_trace difftrans::embree)
+if(TARGET difftrans::io)
+  list(APPEND DIFFTRANS_BENCH_LIBS_trace difftrans::io)
+endif()

@@ -1,0 +1,171 @@
+// The tracer against its limit. On spot, bunny and horse (shared/data,
+// normalized), the camera rays of a 256² protocol view that hit the object
+// are traced single-threaded at depth 4 and 8:
+//   embree    Embree alone on exactly the segments the tracer intersects
+//   primal    trace<float>
+//   gradient  trace<Var<float>> + backward + scatter (one tape per ray)
+//   dual_ior  trace<Dual<float, 1>>, derivative along the IoR
+// Each iteration processes every camera ray once (items = camera rays), so
+// the printed ratios are time per camera ray relative to Embree alone.
+// Targets: primal at depth 4 within 2x Embree; gradient within 4x primal.
+#include <cstdio>
+#include <map>
+#include <memory>
+#include <string>
+
+#include "difftrans/io/mesh_file.hpp"
+#include "difftrans/render/host_scene.hpp"
+#include "difftrans/scene/camera.hpp"
+#include "support/ratio_reporter.hpp"
+
+namespace dr = difftrans::render;
+namespace ad = difftrans::ad;
+using difftrans::Vec3f;
+
+namespace {
+
+// Wraps an intersector and logs every ray it is asked about.
+struct RecordingAccel {
+  const difftrans::accel::EmbreeScene* inner;
+  std::vector<std::pair<Vec3f, Vec3f>>* log;
+  difftrans::accel::RayHit intersect(const Vec3f& o, const Vec3f& d, float tnear, float tfar) const {
+    log->emplace_back(o, d);
+    return inner->intersect(o, d, tnear, tfar);
+  }
+};
+
+struct Workload {
+  std::unique_ptr<dr::HostScene> scene;
+  std::vector<difftrans::scene::Ray> rays;                       // camera rays that hit the object
+  std::vector<std::pair<Vec3f, Vec3f>> segments[2];              // depth 4, depth 8
+};
+
+Workload& workload(const std::string& name) {
+  static std::map<std::string, Workload> cache;
+  auto it = cache.find(name);
+  if (it != cache.end()) return it->second;
+  Workload& w = cache[name];
+  difftrans::io::Mesh m = difftrans::io::read_mesh(std::string(DIFFTRANS_SHARED_DATA_DIR) + "/meshes/" + name + ".obj");
+  difftrans::io::normalize_to_unit_box(m);
+  std::vector<float> p;
+  std::vector<std::int32_t> t;
+  for (const auto& v : m.positions) p.insert(p.end(), {v.x, v.y, v.z});
+  for (const auto& f : m.triangles) t.insert(t.end(), {f.x, f.y, f.z});
+  w.scene = std::make_unique<dr::HostScene>(std::move(p), std::move(t), name);
+  w.scene->ior = 1.5f;
+  std::vector<float> env;  // a smooth 512 x 256 sky, so look-ups cost what a real map costs
+  for (int r = 0; r < 256; ++r)
+    for (int c = 0; c < 512; ++c)
+      env.insert(env.end(), {0.5f + 0.5f * std::sin(c * 0.0123f), 0.5f + 0.4f * std::cos(r * 0.021f), 0.7f});
+  w.scene->set_environment_map(std::move(env), 512, 256);
+  const auto cam = difftrans::scene::protocol_camera(Vec3f(0.3f, 0.5f, 1.0f), 256, 256);
+  for (int y = 0; y < cam.height; ++y)
+    for (int x = 0; x < cam.width; ++x) {
+      const auto r = cam.generate_ray(x, y);
+      if (w.scene->accel().intersect(r.origin, r.direction).hit()) w.rays.push_back(r);
+    }
+  const dr::SceneView view = w.scene->view(false);
+  const ad::ParamSet params = w.scene->params();
+  ad::ParamReader<float> reader(&params);
+  for (int k = 0; k < 2; ++k) {
+    dr::TraceSettings ts;
+    ts.max_depth = k == 0 ? 4 : 8;
+    RecordingAccel rec{&w.scene->accel(), &w.segments[k]};
+    for (const auto& r : w.rays) dr::trace<float>(view, rec, reader, r.origin, r.direction, ts);
+  }
+  std::fprintf(stderr, "%s: %d triangles, %zu camera rays through the object, %.2f / %.2f segments per ray (depth 4 / 8)\n",
+               name.c_str(), w.scene->mesh.num_triangles(), w.rays.size(),
+               double(w.segments[0].size()) / double(w.rays.size()), double(w.segments[1].size()) / double(w.rays.size()));
+  return w;
+}
+
+dr::TraceSettings settings(int depth) {
+  dr::TraceSettings ts;
+  ts.max_depth = depth;
+  return ts;
+}
+
+void embree_alone(benchmark::State& state, std::string name, int depth) {
+  Workload& w = workload(name);
+  const auto& segs = w.segments[depth == 4 ? 0 : 1];
+  for (auto _ : state)
+    for (const auto& [o, d] : segs) benchmark::DoNotOptimize(w.scene->accel().intersect(o, d));
+  state.SetItemsProcessed(state.iterations() * std::int64_t(w.rays.size()));
+  state.counters["segments_per_second"] = benchmark::Counter(double(segs.size()) * double(state.iterations()), benchmark::Counter::kIsRate);
+}
+
+void primal(benchmark::State& state, std::string name, int depth) {
+  Workload& w = workload(name);
+  const dr::SceneView view = w.scene->view(false);
+  const ad::ParamSet params = w.scene->params();
+  ad::ParamReader<float> reader(&params);
+  const dr::TraceSettings ts = settings(depth);
+  for (auto _ : state)
+    for (const auto& r : w.rays)
+      benchmark::DoNotOptimize(dr::trace<float>(view, w.scene->accel(), reader, r.origin, r.direction, ts));
+  state.SetItemsProcessed(state.iterations() * std::int64_t(w.rays.size()));
+}
+
+void gradient(benchmark::State& state, std::string name, int depth) {
+  using V = ad::Var<float>;
+  Workload& w = workload(name);
+  const dr::SceneView view = w.scene->view(true);
+  ad::ParamSet params = w.scene->params();
+  dr::SceneGradient grad(*w.scene);
+  grad.attach(params);
+  ad::Tape<float> tape(1 << 22);
+  std::vector<ad::LeafRecord> log(1 << 18);
+  ad::ParamReader<V> reader(&params, &tape, log.data(), std::int32_t(log.size()));
+  const dr::TraceSettings ts = settings(depth);
+  double nodes = 0, rays = 0, overflow = 0;
+  for (auto _ : state)
+    for (const auto& r : w.rays) {
+      tape.reset();
+      reader.clear();
+      const difftrans::Vec3<V> L = dr::trace<V>(view, w.scene->accel(), reader, r.origin, r.direction, ts);
+      nodes += tape.size();
+      rays += 1;
+      if (tape.overflowed() || reader.overflowed()) {
+        ++overflow;
+        continue;
+      }
+      tape.zero_adjoints();
+      for (int c = 0; c < 3; ++c) tape.seed(L[c], 1.0f);
+      tape.propagate();
+      reader.scatter();
+    }
+  state.SetItemsProcessed(state.iterations() * std::int64_t(w.rays.size()));
+  state.counters["tape_bytes_per_ray"] = nodes / rays * double(ad::Tape<float>::bytes_per_node);
+  state.counters["overflowed_rays"] = overflow;
+}
+
+void dual_ior(benchmark::State& state, std::string name, int depth) {
+  using D = ad::Dual<float, 1>;
+  Workload& w = workload(name);
+  const dr::SceneView view = w.scene->view(true);
+  ad::ParamSet params = w.scene->params();
+  const float one = 1.0f;
+  params.buffers[dr::param_ior].tangents[0] = &one;
+  ad::ParamReader<D> reader(&params);
+  const dr::TraceSettings ts = settings(depth);
+  for (auto _ : state)
+    for (const auto& r : w.rays)
+      benchmark::DoNotOptimize(dr::trace<D>(view, w.scene->accel(), reader, r.origin, r.direction, ts));
+  state.SetItemsProcessed(state.iterations() * std::int64_t(w.rays.size()));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::vector<std::pair<std::string, std::string>> groups;
+  for (const std::string name : {"spot", "bunny", "horse"})
+    for (int depth : {4, 8}) {
+      const std::string prefix = name + "/d" + std::to_string(depth) + "/";
+      benchmark::RegisterBenchmark((prefix + "embree").c_str(), embree_alone, name, depth)->Unit(benchmark::kMillisecond);
+      benchmark::RegisterBenchmark((prefix + "primal").c_str(), primal, name, depth)->Unit(benchmark::kMillisecond);
+      benchmark::RegisterBenchmark((prefix + "gradient").c_str(), gradient, name, depth)->Unit(benchmark::kMillisecond);
+      benchmark::RegisterBenchmark((prefix + "dual_ior").c_str(), dual_ior, name, depth)->Unit(benchmark::kMillisecond);
+      groups.emplace_back(prefix, prefix + "embree");
+    }
+  return dt_bench::run_with_ratios(argc, argv, groups);
+}
