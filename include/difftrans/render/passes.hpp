@@ -70,19 +70,21 @@ struct StatsPerWorker {
 
 }  // namespace detail
 
-// Linear RGB radiance, width·height·3 floats, row 0 at the top.
-inline std::vector<float> render_image(const HostScene& s, const scene::Camera& cam, const PassOptions& opt = {},
-                                       PassStats* stats = nullptr) {
-  std::vector<float> image(std::size_t(cam.width) * cam.height * 3, 0.0f);
+// Linear RGB radiance, width·height·3 values, row 0 at the top; traced in
+// precision T (float, or double for references).
+template <class T = float>
+std::vector<T> render_image(const HostScene& s, const scene::Camera& cam, const PassOptions& opt = {},
+                            PassStats* stats = nullptr) {
+  std::vector<T> image(std::size_t(cam.width) * cam.height * 3, T(0));
   const SceneView view = s.view(false);
   const ad::ParamSet params = s.params();
   ThreadPool& pool = ThreadPool::global();
   detail::StatsPerWorker st(pool.size());
   pool.parallel_for(std::int64_t(cam.width) * cam.height, 64, [&](std::int64_t b, std::int64_t e, int w) {
-    ad::ParamReader<float> reader(&params);
+    ad::ParamReader<T> reader(&params);
     PassStats& ps = st.per[std::size_t(w)];
     detail::for_each_sample(cam, opt.samples_per_axis, b, e, [&](std::int64_t pix, Vec3f o, Vec3f d, float wt) {
-      const Vec3f L = trace<float>(view, s.accel(), reader, o, d, opt.trace, &ps.trace);
+      const Vec3<T> L = trace<T>(view, s.accel(), reader, o, d, opt.trace, &ps.trace);
       ++ps.rays;
       for (int c = 0; c < 3; ++c) image[std::size_t(pix) * 3 + c] += wt * L[c];
     });
@@ -93,23 +95,24 @@ inline std::vector<float> render_image(const HostScene& s, const scene::Camera& 
 
 // Adds to `grad` dLoss/dparameter for every buffer marked in s.differentiate,
 // given dLoss/dpixel (width·height·3). Returns the rendered image as well.
-inline std::vector<float> render_gradient(const HostScene& s, const scene::Camera& cam, const float* pixel_adjoint,
-                                          SceneGradient& grad, const PassOptions& opt = {},
-                                          PassStats* stats = nullptr) {
-  using V = ad::Var<float>;
+// Tapes record in precision T (float; double for reference gradients).
+template <class T = float>
+std::vector<float> render_gradient(const HostScene& s, const scene::Camera& cam, const float* pixel_adjoint,
+                                   SceneGradient& grad, const PassOptions& opt = {}, PassStats* stats = nullptr) {
+  using V = ad::Var<T>;
   std::vector<float> image(std::size_t(cam.width) * cam.height * 3, 0.0f);
   const SceneView view = s.view(true);
   ad::ParamSet params = s.params();
   grad.attach(params);
   ThreadPool& pool = ThreadPool::global();
   detail::StatsPerWorker st(pool.size());
-  std::vector<std::unique_ptr<ad::Tape<float>>> tapes(std::size_t(pool.size()));
+  std::vector<std::unique_ptr<ad::Tape<T>>> tapes(std::size_t(pool.size()));
   std::vector<std::vector<ad::LeafRecord>> logs(std::size_t(pool.size()));
   pool.parallel_for(std::int64_t(cam.width) * cam.height, 16, [&](std::int64_t b, std::int64_t e, int w) {
     auto& tape = tapes[std::size_t(w)];
     auto& log = logs[std::size_t(w)];
     if (!tape) {
-      tape = std::make_unique<ad::Tape<float>>(opt.tape_capacity);
+      tape = std::make_unique<ad::Tape<T>>(opt.tape_capacity);
       log.resize(std::size_t(opt.leaf_log_capacity));
     }
     ad::ParamReader<V> reader(&params, tape.get(), log.data(), std::int32_t(log.size()));
@@ -122,14 +125,14 @@ inline std::vector<float> render_gradient(const HostScene& s, const scene::Camer
       ps.tape_nodes += tape->size();
       ps.max_tape_nodes = tape->size() > ps.max_tape_nodes ? tape->size() : ps.max_tape_nodes;
       const float* a = pixel_adjoint + std::size_t(pix) * 3;
-      for (int c = 0; c < 3; ++c) image[std::size_t(pix) * 3 + c] += wt * L[c].value;
+      for (int c = 0; c < 3; ++c) image[std::size_t(pix) * 3 + c] += wt * float(L[c].value);
       if (tape->overflowed() || reader.overflowed()) {
         ++ps.overflowed_rays;
         reader.clear();
         return;
       }
       tape->zero_adjoints();
-      for (int c = 0; c < 3; ++c) tape->seed(L[c], wt * a[c]);
+      for (int c = 0; c < 3; ++c) tape->seed(L[c], T(wt * a[c]));
       tape->propagate();
       reader.scatter();
     });
