@@ -14,9 +14,10 @@
 namespace difftrans::ad {
 
 // Smallest argument at which safe_sqrt (and the asin/acos rules) evaluate
-// their derivative: keeps d sqrt(x)/dx finite at x = 0.
-template <class T> inline constexpr T safe_sqrt_eps = T(1e-12);
-template <> inline constexpr float safe_sqrt_eps<float> = 1e-10f;
+// their derivative: keeps d sqrt(x)/dx finite at x = 0 (at most 5e4). The
+// same in every precision, so float and double passes share one derivative
+// rule and differ only by rounding.
+template <class T> inline constexpr T safe_sqrt_eps = T(1e-10);
 
 namespace detail {
 

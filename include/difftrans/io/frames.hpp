@@ -53,7 +53,7 @@ struct Split {
 };
 
 struct LoadOptions {
-  bool read_pixels = true;       // false: cameras and paths only (image sizes still checked against w, h when given)
+  bool read_pixels = true;       // false: cameras and paths only; image files are not opened (unless w, h are absent)
   bool skip_bad_frames = false;  // true: a bad frame becomes a warning and is left out, instead of an Error
 };
 

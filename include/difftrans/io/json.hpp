@@ -73,7 +73,9 @@ class JsonReader {
   }
   JsonReader child(const std::string& key) const { return {at(key), file_, field(key)}; }
   JsonReader element(size_t i) const {
-    return {json_.at(i), file_, where_ + "[" + std::to_string(i) + "]"};
+    if (!json_.is_array()) fail("expected an array, found " + std::string(json_.type_name()));
+    if (i >= json_.size()) fail("has no element " + std::to_string(i));
+    return {json_[i], file_, where_ + "[" + std::to_string(i) + "]"};
   }
 
   // A finite number.

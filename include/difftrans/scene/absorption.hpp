@@ -1,6 +1,5 @@
-// Absorption inside the object (Beer–Lambert): none (clear glass), a
-// homogeneous RGB coefficient, or an RGB grid over the object's box with
-// trilinear interpolation; transmittance of straight segments, generic over S.
+// Absorption inside the object (Beer–Lambert): none, homogeneous RGB, or an RGB
+// grid over the object's box; transmittance of straight segments, generic over S.
 #pragma once
 
 #include <cmath>
@@ -37,8 +36,9 @@ struct AbsorptionField {
 
 // How a grid segment is integrated.
 struct AbsorptionIntegration {
-  int samples = 0;       // 0: exact, cell by cell; K > 0: K stratified samples
-  float offset = 0.5f;   // K > 0: where each sample sits in its stratum, in [0, 1) (0.5: midpoint rule)
+  int samples = 0;      // 0: exact, cell by cell; K > 0: K stratified samples
+  float offset = 0.5f;  // K > 0: where each sample sits in its stratum, in [0, 1): 0.5 is the midpoint
+                        // rule; a random offset per ray gives unbiased (shifted-stratified) estimates
 };
 
 // Beyond this optical depth the transmittance is taken as exactly 0 with a
@@ -114,22 +114,26 @@ DT_HOST_DEVICE void trilinear_weights(const Vec3<S>& l, S w[8]) {
 
 // Grid coordinates (in cells) of a world point, and the cell containing a
 // value-level point (clamped to the grid).
+template <class T>
 struct GridFrame {
-  Vec3f lo;
-  Vec3f inv_cell;  // cells per unit length
-  Vec3i cells;     // res - 1
+  Vec3<T> lo;
+  Vec3<T> inv_cell;  // cells per unit length
+  Vec3i cells;       // res - 1
 };
 
-DT_HOST_DEVICE inline GridFrame grid_frame(const AbsorptionField& f) {
-  GridFrame g;
-  g.lo = f.lo;
+template <class T>
+DT_HOST_DEVICE GridFrame<T> grid_frame(const AbsorptionField& f) {
+  GridFrame<T> g;
   g.cells = f.res - Vec3i(1);
-  for (int a = 0; a < 3; ++a) g.inv_cell[a] = float(g.cells[a]) / (f.hi[a] - f.lo[a]);
+  for (int a = 0; a < 3; ++a) {
+    g.lo[a] = T(f.lo[a]);
+    g.inv_cell[a] = T(g.cells[a]) / (T(f.hi[a]) - T(f.lo[a]));
+  }
   return g;
 }
 
 template <class T>
-DT_HOST_DEVICE Vec3i cell_of(const GridFrame& g, const Vec3<T>& grid_coord) {
+DT_HOST_DEVICE Vec3i cell_of(const GridFrame<T>& g, const Vec3<T>& grid_coord) {
   Vec3i c;
   for (int a = 0; a < 3; ++a) {
     const T fl = floor(grid_coord[a]);
@@ -203,7 +207,7 @@ DT_HOST_DEVICE S clip_end(const Vec3<S>& a, const Vec3<S>& b, int axis, ad::scal
 }
 
 template <class S>
-DT_HOST_DEVICE Vec3<S> grid_point(const GridFrame& g, const Vec3<S>& a, const Vec3<S>& ab, const S& t) {
+DT_HOST_DEVICE Vec3<S> grid_point(const GridFrame<ad::scalar_t<S>>& g, const Vec3<S>& a, const Vec3<S>& ab, const S& t) {
   Vec3<S> p;
   for (int ax = 0; ax < 3; ++ax) p[ax] = (a[ax] + t * ab[ax] - g.lo[ax]) * g.inv_cell[ax];
   return p;
@@ -218,13 +222,13 @@ template <class S, class Reader>
 DT_HOST_DEVICE Vec3<S> integrate_grid_exact(Reader& reader, const AbsorptionField& f, const Vec3<S>& a,
                                             const Vec3<S>& b, const Clip<ad::scalar_t<S>>& clip) {
   using T = ad::scalar_t<S>;
-  const GridFrame g = grid_frame(f);
+  const GridFrame<T> g = grid_frame<T>(f);
   const Vec3<S> ab = b - a;
   const Vec3<T> av = value_of(a), abv = value_of(b) - av;
   Vec3<T> ga, dg;  // grid coordinates of a, and their rate per unit t
   for (int ax = 0; ax < 3; ++ax) {
-    ga[ax] = (av[ax] - T(g.lo[ax])) * T(g.inv_cell[ax]);
-    dg[ax] = abv[ax] * T(g.inv_cell[ax]);
+    ga[ax] = (av[ax] - g.lo[ax]) * g.inv_cell[ax];
+    dg[ax] = abv[ax] * g.inv_cell[ax];
   }
   // next plane crossing per axis
   Vec3<T> t_next;
@@ -295,7 +299,7 @@ DT_HOST_DEVICE Vec3<S> integrate_grid_samples(Reader& reader, const AbsorptionFi
                                               const Vec3<S>& b, const Clip<ad::scalar_t<S>>& clip, int samples,
                                               float offset) {
   using T = ad::scalar_t<S>;
-  const GridFrame g = grid_frame(f);
+  const GridFrame<T> g = grid_frame<T>(f);
   const Vec3<S> ab = b - a;
   const S t_first = clip_end(a, b, clip.axis_in, clip.t_in, f.lo, f.hi);
   const S t_last = clip_end(a, b, clip.axis_out, clip.t_out, f.lo, f.hi);
@@ -335,7 +339,7 @@ DT_HOST_DEVICE Vec3<S> sigma_at(Reader& reader, const AbsorptionField& f, const 
   const Vec3<T> xv = value_of(x);
   for (int ax = 0; ax < 3; ++ax)
     if (!(xv[ax] >= T(f.lo[ax]) && xv[ax] <= T(f.hi[ax]))) return Vec3<S>(S(0), S(0), S(0));
-  const detail::GridFrame g = detail::grid_frame(f);
+  const detail::GridFrame<T> g = detail::grid_frame<T>(f);
   Vec3<S> p;
   for (int ax = 0; ax < 3; ++ax) p[ax] = (x[ax] - g.lo[ax]) * g.inv_cell[ax];
   const Vec3i cell = detail::cell_of(g, value_of(p));

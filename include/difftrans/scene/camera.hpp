@@ -1,6 +1,5 @@
-// Pinhole camera of the NeRF-synthetic convention: a 4x4 camera-to-world
-// matrix with OpenGL axes (the camera looks down -Z, +Y up) and intrinsics.
-// Rays are generated in float; projection of world points is generic over S.
+// Pinhole camera of the NeRF-synthetic convention (4x4 camera-to-world, OpenGL
+// axes: looks down -Z, +Y up): float ray generation, projection generic over S.
 #pragma once
 
 #include <cmath>

@@ -1,6 +1,5 @@
-// Distant environment: a constant colour (the cheap case) or an
-// equirectangular RGB map with bilinear lookup, differentiable with respect to
-// its texels and to the look-up direction. The one place of the uv convention.
+// Distant environment: constant colour or equirectangular RGB map (bilinear,
+// differentiable in texels and direction). The one home of the uv convention.
 #pragma once
 
 #include <cstdint>
@@ -83,9 +82,10 @@ DT_HOST_DEVICE S safe_atan2(const S& y, const S& x) {
 template <class S>
 DT_HOST_DEVICE Vec2<S> direction_to_uv(const Vec3<S>& d) {
   using T = ad::scalar_t<S>;
+  const T inv_two_pi = inv_two_pi_v<T>, inv_pi = inv_pi_v<T>;  // copies: usable in device code
   const S r = safe_sqrt(d.x * d.x + d.z * d.z);
-  const S u = T(0.5) + detail::safe_atan2(d.x, -d.z) * inv_two_pi_v<T>;
-  const S v = detail::safe_atan2(r, d.y) * inv_pi_v<T>;
+  const S u = T(0.5) + detail::safe_atan2(d.x, -d.z) * inv_two_pi;
+  const S v = detail::safe_atan2(r, d.y) * inv_pi;
   return Vec2<S>(u, v);
 }
 
@@ -108,8 +108,10 @@ DT_HOST_DEVICE Vec3<S> lookup_uv(Reader& reader, const EnvMap& env, const Vec2<S
   const S fu = uv.x * T(w) - T(0.5);
   const T fu_floor = floor(value_of(fu));
   const S tu = fu - fu_floor;  // in [0, 1)
-  int c0 = int(fu_floor) % w;
-  if (c0 < 0) c0 += w;
+  // fu_floor mod w, in floating point so any finite u is safe
+  const T wrapped = fu_floor - T(w) * floor(fu_floor / T(w));
+  int c0 = int(wrapped);
+  c0 = c0 < 0 ? 0 : (c0 >= w ? w - 1 : c0);
   const int c1 = c0 + 1 == w ? 0 : c0 + 1;
   // rows: clamp at the poles
   const S fv = clamp(uv.y * T(h) - T(0.5), S(0), S(T(h - 1)));

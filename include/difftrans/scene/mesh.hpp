@@ -1,6 +1,5 @@
-// Triangle mesh for the tracer: vertex positions (a flat xyz array, optionally
-// a parameter buffer), vertex normals as DiffTrans defines them, and the hit
-// re-evaluated on one triangle in S (Möller–Trumbore, point, shading normal).
+// Triangle mesh for the tracer: positions, vertex normals as DiffTrans defines
+// them, and a hit re-evaluated on one triangle in S (Möller–Trumbore, normal).
 #pragma once
 
 #include <cstdint>

@@ -8,6 +8,12 @@
 
 namespace difftrans::scene {
 
+// value_of / detach / all_finite with the vector overloads of ad/glm.hpp
+// (namespace difftrans re-exports them before those overloads exist).
+using ad::all_finite;
+using ad::detach;
+using ad::value_of;
+
 // One flat array of scene data (texels, raw absorption, vertex coordinates).
 // buffer >= 0: the array is buffer `buffer` of the pass's ParamSet and every
 // read goes through reader.read(buffer, index) (a leaf for Var, tangents for

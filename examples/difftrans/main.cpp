@@ -1,0 +1,35 @@
+// The difftrans command: subcommands in the manner of git (difftrans evaluate,
+// difftrans info, ...). Adding a subcommand: a file difftrans/NAME.cpp that
+// defines difftrans::cli::add_NAME(CLI::App&), and one X(NAME) line below.
+#include "command.hpp"
+
+#include <exception>
+
+#define DIFFTRANS_COMMANDS(X) \
+  X(evaluate)                 \
+  X(info)
+
+namespace difftrans::cli {
+#define DIFFTRANS_DECLARE(name) void add_##name(CLI::App& app);
+DIFFTRANS_COMMANDS(DIFFTRANS_DECLARE)
+#undef DIFFTRANS_DECLARE
+}  // namespace difftrans::cli
+
+int main(int argc, char** argv) {
+  CLI::App app{"difftrans: differentiable rendering of transparent objects.\n"
+               "Run 'difftrans SUBCOMMAND --help' for a subcommand's options."};
+  app.name("difftrans");
+  app.require_subcommand(1);
+#define DIFFTRANS_ADD(name) difftrans::cli::add_##name(app);
+  DIFFTRANS_COMMANDS(DIFFTRANS_ADD)
+#undef DIFFTRANS_ADD
+  try {
+    app.parse(argc, argv);  // runs the chosen subcommand's callback
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const std::exception& e) {
+    std::cerr << "difftrans: error: " << e.what() << std::endl;
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,7 @@
+// difftrans::metrics umbrella header: Chamfer / F1, PSNR / SSIM, IoR error
+// (PROTOCOL.md). Host code; link difftrans::io.
+#pragma once
+
+#include "difftrans/metrics/chamfer.hpp"
+#include "difftrans/metrics/image.hpp"
+#include "difftrans/metrics/ior.hpp"

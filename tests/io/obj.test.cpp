@@ -1,0 +1,81 @@
+// OBJ: reading (polygons fanned, errors and warnings with line numbers) and writing.
+#include "difftrans/io/obj.hpp"
+
+#include "io/fixtures.hpp"
+
+using namespace dt_test;
+namespace io = difftrans::io;
+
+TEST_CASE("OBJ: triangles, a quad and a pentagon are fan-triangulated; groups keep file order") {
+  TempDir dir;
+  const auto path = dir / "poly.obj";
+  write_text(path,
+             "# comment\nmtllib none.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0.5 1.5 0\nvn 0 0 1\n"
+             "o first\nf 1 2 3\ng second\nf 1/1/1 2//1 3 4\nf -5 -4 -3 5 -2\n");
+  std::vector<std::string> warnings;
+  const io::Mesh m = io::read_obj(path, &warnings);
+  REQUIRE(m.positions.size() == 5);
+  CHECK(m.positions[4] == difftrans::Vec3f(0.5f, 1.5f, 0.0f));
+  REQUIRE(m.triangles.size() == 1 + 2 + 3);
+  CHECK(m.triangles[0] == difftrans::Vec3i(0, 1, 2));
+  CHECK(m.triangles[1] == difftrans::Vec3i(0, 1, 2));
+  CHECK(m.triangles[2] == difftrans::Vec3i(0, 2, 3));
+  CHECK(m.triangles[3] == difftrans::Vec3i(0, 1, 2));
+  CHECK(m.triangles[4] == difftrans::Vec3i(0, 2, 4));
+  CHECK(m.triangles[5] == difftrans::Vec3i(0, 4, 3));
+  // an open, overlapping fan: warnings, located by line
+  const auto w = joined(warnings);
+  CHECK(contains(w, "non-manifold edge(s)"));
+  CHECK(contains(w, "face on line 12"));
+}
+
+TEST_CASE("OBJ: bad input gives an Error with file and line") {
+  TempDir dir;
+  const auto bad = [&](const std::string& text) {
+    const auto path = dir / "bad.obj";
+    write_text(path, text);
+    return error_of([&] { io::read_obj(path); });
+  };
+  const std::string f = (dir / "bad.obj").string();
+  CHECK(bad("v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n") == f + ":3: vertex coordinate 'nan' is not a finite number");
+  CHECK(bad("v 0 0 0\nv 1 0 inf\n") == f + ":2: vertex coordinate 'inf' is not a finite number");
+  CHECK(bad("v 0 0 1e39\n") == f + ":1: vertex coordinate '1e39' is not a finite number");  // beyond float
+  CHECK(bad("v 0 abc 0\n") == f + ":1: vertex coordinate 'abc' is not a number");
+  CHECK(bad("v 0 0\n") == f + ":1: vertex needs 3 coordinates, found 2");
+  CHECK(bad("v 0 0 0\nv 1 0 0\nv 0 1 0\n\nf 1 2 7\n") == f + ":5: face vertex index 7 is out of range: the file has 3 vertices");
+  CHECK(bad("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 0\n") == f + ":4: face vertex index 0 (OBJ indices start at 1)");
+  CHECK(bad("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -4\n") ==
+        f + ":4: relative face vertex index -4 is out of range: only 3 vertices so far");
+  CHECK(bad("v 0 0 0\nf 1 x 1\n") == f + ":2: face vertex 'x' is not an index");
+  CHECK(error_of([&] { io::read_obj(dir / "missing.obj"); }) == (dir / "missing.obj").string() + ": file not found");
+}
+
+TEST_CASE("OBJ: short and degenerate faces are warnings with lines") {
+  TempDir dir;
+  const auto path = dir / "warn.obj";
+  write_text(path, "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2\nf 1 2 3\nf 1 2 4\n");
+  std::vector<std::string> warnings;
+  const io::Mesh m = io::read_obj(path, &warnings);
+  CHECK(m.triangles.size() == 2);
+  const auto w = joined(warnings);
+  CHECK(contains(w, path.string() + ": 1 face(s) with fewer than 3 vertices ignored, on line(s) 5"));
+  CHECK(contains(w, "face on line 7 (vertices 0, 1, 3): zero area"));
+  // a file with vertices only
+  write_text(path, "v 0 0 0\n");
+  warnings.clear();
+  io::read_obj(path, &warnings);
+  CHECK(contains(joined(warnings), path.string() + ": no faces"));
+}
+
+TEST_CASE("OBJ: write then read gives the same mesh bit for bit") {
+  TempDir dir;
+  auto m = uv_sphere(0.37, 7, 9, {0.1, -2.0, 3.3});
+  m.positions[3].x = 1.0f / 3.0f;  // a float that needs 9 digits
+  io::write_obj(dir / "s.obj", m);
+  std::vector<std::string> warnings;
+  const io::Mesh back = io::read_obj(dir / "s.obj", &warnings);
+  CHECK(warnings.empty());
+  CHECK(back.positions == m.positions);
+  CHECK(back.triangles == m.triangles);
+  CHECK(contains(error_of([&] { io::write_obj(dir / "no/dir/s.obj", m); }), "cannot open for writing"));
+}

@@ -1,0 +1,143 @@
+// Chamfer / F1 against closed forms: concentric spheres (CD = 2 (r2 - r1)^2
+// in the ground truth's unit box, bounded by the tessellation), F1 of 1 and 0
+// on either side of the gap, precision against recall with an extra part.
+#include "difftrans/metrics/chamfer.hpp"
+
+#include "io/fixtures.hpp"
+
+using namespace dt_test;
+namespace io = difftrans::io;
+namespace metrics = difftrans::metrics;
+using difftrans::Vec3d;
+
+namespace {
+
+// Smallest distance from the sphere's centre to any point of its triangles,
+// over the radius: every vertex lies on the sphere, so a triangle's plane is
+// at sqrt(r^2 - R^2) from the centre, R the triangle's circumradius.
+double inscribed_ratio(const io::Mesh& m, double r) {
+  double lowest = 1.0;
+  for (const auto& f : m.triangles) {
+    const Vec3d a(m.positions[size_t(f.x)]), b(m.positions[size_t(f.y)]), c(m.positions[size_t(f.z)]);
+    const double la = glm::length(b - c), lb = glm::length(c - a), lc = glm::length(a - b);
+    const double area = 0.5 * glm::length(glm::cross(b - a, c - a));
+    const double circum = la * lb * lc / (4.0 * area);
+    lowest = std::min(lowest, std::sqrt(std::max(0.0, 1.0 - (circum / r) * (circum / r))));
+  }
+  return lowest;
+}
+
+io::Mesh merged(const io::Mesh& a, const io::Mesh& b) {
+  io::Mesh m = a;
+  const int offset = int(a.positions.size());
+  m.positions.insert(m.positions.end(), b.positions.begin(), b.positions.end());
+  for (const auto& f : b.triangles) m.triangles.push_back(f + offset);
+  return m;
+}
+
+}  // namespace
+
+TEST_CASE("concentric spheres: CD = 2 (r2 - r1)^2 in the ground truth's unit box, within the tessellation bound") {
+  // Ground truth radius 2 about (3, -1, 2): its unit box scales by 1/4 and
+  // centres it, so the normalized radii are 0.5 and 0.4.
+  const Vec3d centre(3.0, -1.0, 2.0);
+  const double r2 = 2.0, r1 = 1.6;
+  const io::Mesh gt = uv_sphere(r2, 64, 128, centre);
+  const io::Mesh pred = uv_sphere(r1, 64, 128, centre);
+  metrics::GeometryOptions options;
+  options.samples = 50000;
+  const auto m = metrics::evaluate_geometry(pred, gt, options);
+  const double rho2 = 0.5, rho1 = 0.4;
+  const double h1 = inscribed_ratio(pred, r1), h2 = inscribed_ratio(gt, r2);
+  // Every distance is at least the radial gap between the inner sphere's
+  // outermost and the outer mesh's innermost point...
+  const double lower = 2.0 * (rho2 * h2 - rho1) * (rho2 * h2 - rho1);
+  // ... and at most the widest radial gap plus the tangential spacing of the
+  // samples: E[s^2] = 1 / (pi lambda) for nearest points of density lambda,
+  // scaled by up to rho2 / rho1 between the spheres; allowance 3 E[s^2].
+  const double lambda = double(options.samples) / (4.0 * 3.14159265358979 * rho2 * rho2);
+  const double upper = 2.0 * (rho2 - rho1 * h1) * (rho2 - rho1 * h1) + 2.0 * 3.0 * (rho2 / rho1) / (3.14159265358979 * lambda);
+  CAPTURE(m.chamfer);
+  CAPTURE(lower);
+  CAPTURE(upper);
+  CHECK(m.chamfer >= lower);
+  CHECK(m.chamfer <= upper);
+  CHECK(m.chamfer == doctest::Approx(2.0 * (rho2 - rho1) * (rho2 - rho1)).epsilon(0.015));
+  CHECK(m.f1 == 0.0);  // every distance is near 0.1 > tau
+  CHECK(m.samples == 50000);
+}
+
+TEST_CASE("F1 on either side of a thin gap: 1 when tau exceeds every distance, 0 below the lower bound") {
+  // normalized radii 0.5 and 0.497: gap 0.003
+  const io::Mesh gt = uv_sphere(1.0, 64, 128);
+  const io::Mesh pred = uv_sphere(0.994, 64, 128);
+  const double lowest_gap = 0.5 * inscribed_ratio(gt, 1.0) - 0.497;
+  REQUIRE(lowest_gap > 0.002);
+  metrics::GeometryOptions options;  // 200,000 samples: nearest samples within ~0.004
+  auto m = metrics::evaluate_geometry(pred, gt, options);
+  CHECK(m.precision == 1.0);
+  CHECK(m.recall == 1.0);
+  CHECK(m.f1 == 1.0);
+  CHECK(m.chamfer >= 2.0 * lowest_gap * lowest_gap);
+  options.tau = 0.002;
+  m = metrics::evaluate_geometry(pred, gt, options);
+  CHECK(m.precision == 0.0);
+  CHECK(m.recall == 0.0);
+  CHECK(m.f1 == 0.0);
+}
+
+TEST_CASE("precision counts predicted points, recall ground-truth points") {
+  // Prediction = the ground-truth sphere plus a far sphere of half the radius:
+  // a fifth of its area (so of its samples) is far from the ground truth.
+  const io::Mesh gt = uv_sphere(1.0, 32, 64);
+  const io::Mesh pred = merged(gt, uv_sphere(0.5, 32, 64, {10.0, 0.0, 0.0}));
+  const double far_fraction = io::surface_area(uv_sphere(0.5, 32, 64)) / io::surface_area(pred);
+  metrics::GeometryOptions options;
+  const auto m = metrics::evaluate_geometry(pred, gt, options);
+  CHECK(m.recall == 1.0);  // the ground truth lies inside the prediction
+  CHECK(m.precision == doctest::Approx(1.0 - far_fraction).epsilon(0.01));  // binomial sd ~ 0.001
+  CHECK(m.f1 == doctest::Approx(2.0 * m.precision / (m.precision + 1.0)));
+  const auto swapped = metrics::evaluate_geometry(gt, pred, options);  // now the far part is in the truth
+  CHECK(swapped.precision > 0.99);
+  CHECK(swapped.recall < 0.9);
+}
+
+TEST_CASE("a mesh against itself: CD 0, F1 1; sampling is deterministic for a seed and uniform by area") {
+  const io::Mesh cube = cube_mesh();
+  const auto m = metrics::evaluate_geometry(cube, cube, {});
+  CHECK(m.chamfer == 0.0);
+  CHECK(m.f1 == 1.0);
+  const auto a = metrics::sample_surface(cube, 60000, 7), b = metrics::sample_surface(cube, 60000, 7);
+  const auto c = metrics::sample_surface(cube, 60000, 8);
+  CHECK(a == b);
+  CHECK(a != c);
+  int faces[6] = {0, 0, 0, 0, 0, 0};
+  for (const auto& p : a) {
+    int on = 0;
+    for (int k = 0; k < 3; ++k) {
+      REQUIRE(p[k] >= -1e-12);
+      REQUIRE(p[k] <= 1.0 + 1e-12);
+      if (p[k] < 1e-12) { ++faces[2 * k]; ++on; }
+      else if (p[k] > 1.0 - 1e-12) { ++faces[2 * k + 1]; ++on; }
+    }
+    REQUIRE(on >= 1);  // on the surface
+  }
+  for (int f : faces) CHECK(std::abs(f - 10000) < 500);  // 1/6 each; binomial sd ~ 91
+  CHECK_THROWS_AS(metrics::sample_surface(io::Mesh{}, 10, 1), std::invalid_argument);
+}
+
+TEST_CASE("k-d tree nearest neighbours agree with brute force, for any thread count") {
+  std::mt19937_64 rng(3);
+  std::vector<Vec3d> points(3000), queries(20000);
+  for (auto& p : points) p = {metrics::detail::uniform01(rng), metrics::detail::uniform01(rng), metrics::detail::uniform01(rng)};
+  for (auto& q : queries) q = {metrics::detail::uniform01(rng) * 1.2 - 0.1, metrics::detail::uniform01(rng), 0.5};
+  const auto one = metrics::nearest_squared_distances(queries, points, 1);
+  const auto four = metrics::nearest_squared_distances(queries, points, 4);
+  CHECK(one == four);
+  for (size_t i = 0; i < queries.size(); i += 97) {
+    double best = 1e300;
+    for (const auto& p : points) best = std::min(best, glm::dot(queries[i] - p, queries[i] - p));
+    CHECK(one[i] == doctest::Approx(best).epsilon(1e-12));
+  }
+  CHECK_THROWS_AS(metrics::nearest_squared_distances(queries, {}), std::invalid_argument);
+}
