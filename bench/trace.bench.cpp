@@ -109,7 +109,7 @@ void primal(benchmark::State& state, std::string name, int depth) {
 void gradient(benchmark::State& state, std::string name, int depth) {
   using V = ad::Var<float>;
   Workload& w = workload(name);
-  const dr::SceneView view = w.scene->view(true);
+  const dr::SceneView view = w.scene->view(true, true);
   ad::ParamSet params = w.scene->params();
   dr::SceneGradient grad(*w.scene);
   grad.attach(params);
@@ -134,6 +134,7 @@ void gradient(benchmark::State& state, std::string name, int depth) {
       tape.propagate();
       reader.scatter();
     }
+  grad.fold_normals(*w.scene);  // once per sweep, as render_gradient does
   state.SetItemsProcessed(state.iterations() * std::int64_t(w.rays.size()));
   state.counters["tape_bytes_per_ray"] = nodes / rays * double(ad::Tape<float>::bytes_per_node);
   state.counters["overflowed_rays"] = overflow;
@@ -142,7 +143,10 @@ void gradient(benchmark::State& state, std::string name, int depth) {
 void dual_ior(benchmark::State& state, std::string name, int depth) {
   using D = ad::Dual<float, 1>;
   Workload& w = workload(name);
+  // only the IoR carries a tangent: every other unknown is read as a constant
+  for (int b = 0; b < dr::param_count; ++b) w.scene->differentiate[b] = b == dr::param_ior;
   const dr::SceneView view = w.scene->view(true);
+  for (bool& d : w.scene->differentiate) d = true;
   ad::ParamSet params = w.scene->params();
   const float one = 1.0f;
   params.buffers[dr::param_ior].tangents[0] = &one;

@@ -64,8 +64,8 @@ TEST_CASE("reverse and forward passes agree with each other and with differences
   // forward mode along the IoR and along one absorption channel
   const float one = 1.0f;
   const float sigma_dir[3] = {0.0f, 1.0f, 0.0f};
-  const float* along_ior[dr::param_count] = {nullptr, &one, nullptr, nullptr};
-  const float* along_sigma[dr::param_count] = {nullptr, nullptr, sigma_dir, nullptr};
+  const float* along_ior[dr::param_count] = {nullptr, &one, nullptr, nullptr, nullptr};
+  const float* along_sigma[dr::param_count] = {nullptr, nullptr, sigma_dir, nullptr, nullptr};
   const auto dot = [&](const std::vector<float>& img) {
     double sum = 0;
     for (std::size_t i = 0; i < img.size(); ++i) sum += double(adjoint[i]) * img[i];

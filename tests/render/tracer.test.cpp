@@ -83,7 +83,7 @@ SceneGradient loss_gradient(const HostScene& s, const std::vector<TestRay>& rays
   for (const auto& r : rays) {
     tape.reset();
     reader.clear();
-    const Vec3<V> L = difftrans::render::trace<V>(s.view(true), s.accel(), reader, r.o, r.d, ts);
+    const Vec3<V> L = difftrans::render::trace<V>(s.view(true, true), s.accel(), reader, r.o, r.d, ts);
     REQUIRE_FALSE(tape.overflowed());
     REQUIRE_FALSE(reader.overflowed());
     finite = finite && all_finite(L);
@@ -92,6 +92,7 @@ SceneGradient loss_gradient(const HostScene& s, const std::vector<TestRay>& rays
     tape.propagate();
     reader.scatter();
   }
+  g.fold_normals(s);
   for (auto* v : {&g.positions, &g.ior, &g.absorption, &g.environment})
     for (float x : *v) finite = finite && std::isfinite(x);
   if (all_finite_out) *all_finite_out = finite;
@@ -399,4 +400,24 @@ TEST_CASE("hard cases stay finite, values and gradients") {
   expect_finite(deg, {{Vec3f(0.0f, 3.0f, 0.0f), Vec3f(0, -1, 0)}, {Vec3f(-0.5f, 3.0f, 0.2f), Vec3f(0, -1, 0)},
                       {Vec3f(0.1f, 3.0f, -0.5f), Vec3f(0, -1, 0)}},
                 "degenerate triangle");
+}
+
+TEST_CASE("two-level normals give the one-ring gradient") {
+  HostScene s = make_scene(make_icosphere(0.5f, 2), 1.5f);
+  smooth_environment(s);
+  TraceSettings ts;
+  ts.max_depth = 5;
+  const auto rays = rays_towards_centre(Vec3f(0.2f, 0.4f, 3.0f), 0.4f, 12);
+  s.two_level_normals = true;
+  const SceneGradient two_level = loss_gradient(s, rays, Vec3d(1.0, 0.6, 0.3), ts);
+  s.two_level_normals = false;
+  const SceneGradient one_ring = loss_gradient(s, rays, Vec3d(1.0, 0.6, 0.3), ts);
+  double diff = 0, norm = 0;
+  for (std::size_t i = 0; i < one_ring.positions.size(); ++i) {
+    diff += std::pow(double(two_level.positions[i]) - one_ring.positions[i], 2);
+    norm += std::pow(double(one_ring.positions[i]), 2);
+  }
+  CHECK(norm > 0);
+  CHECK(std::sqrt(diff / norm) < 1e-5);
+  CHECK(two_level.ior[0] == doctest::Approx(one_ring.ior[0]).epsilon(1e-6));
 }

@@ -4,6 +4,7 @@
 // and hand view() / params() to the passes in render/passes.hpp.
 #pragma once
 
+#include <algorithm>
 #include <memory>
 #include <string>
 #include <vector>
@@ -20,7 +21,8 @@ enum ParamId : int {
   param_ior = 1,          // 1
   param_absorption = 2,   // raw absorption parameters (sigma = softplus(raw))
   param_environment = 3,  // RGB texels
-  param_count = 4,
+  param_normals = 4,      // vertex normals, derived from the positions (two-level normals)
+  param_count = 5,
 };
 
 class HostScene {
@@ -36,7 +38,10 @@ class HostScene {
   std::vector<float> environment{1.0f, 1.0f, 1.0f};
   int environment_width = 0, environment_height = 0;  // 0: constant
   // which unknowns carry derivatives (read through the reader) in AD passes
-  bool differentiate[param_count] = {true, true, true, true};
+  bool differentiate[param_count] = {true, true, true, true, true};
+  // Vertex normals as leaves of their own whose gradient is folded into the
+  // positions once per pass (fast), rather than one-rings recomputed per hit.
+  bool two_level_normals = true;
 
   HostScene() = default;
   HostScene(std::vector<float> positions, std::vector<std::int32_t> triangles, std::string name = "mesh")
@@ -82,11 +87,14 @@ class HostScene {
   const accel::EmbreeScene& accel() const { return *accel_; }
 
   // The view for the generic tracer. ad = true: the unknowns marked in
-  // `differentiate` are read through the pass's reader.
-  SceneView view(bool ad) const {
+  // `differentiate` are read through the pass's reader. reverse = true (a
+  // reverse-mode pass that calls SceneGradient::fold_normals afterwards):
+  // vertex normals are leaves of their own when two_level_normals is set.
+  SceneView view(bool ad, bool reverse = false) const {
     const auto buffer = [&](ParamId id) { return ad && differentiate[id] ? int(id) : -1; };
     SceneView v;
-    v.mesh = mesh.view(buffer(param_positions));
+    const bool normals_ad = reverse && two_level_normals && buffer(param_positions) >= 0;
+    v.mesh = mesh.view(buffer(param_positions), normals_ad ? int(param_normals) : -1);
     v.ior = scene::ParamSource{&ior, 1, buffer(param_ior)};
     switch (absorption_kind) {
       case scene::AbsorptionKind::none: v.absorption = scene::no_absorption(); break;
@@ -116,6 +124,8 @@ class HostScene {
     set.buffers[param_absorption].size = std::int32_t(absorption_raw.size());
     set.buffers[param_environment].values = environment.data();
     set.buffers[param_environment].size = std::int32_t(environment.size());
+    set.buffers[param_normals].values = mesh.vertex_normals.data();
+    set.buffers[param_normals].size = std::int32_t(mesh.vertex_normals.size());
     return set;
   }
 
@@ -127,10 +137,21 @@ class HostScene {
 // Gradient arrays for every parameter of a scene, sized to match.
 struct SceneGradient {
   std::vector<float> positions, ior, absorption, environment;
+  std::vector<float> normals;  // intermediate: folded into positions by fold_normals
 
   explicit SceneGradient(const HostScene& s)
       : positions(s.mesh.positions.size(), 0.0f), ior(1, 0.0f), absorption(s.absorption_raw.size(), 0.0f),
-        environment(s.environment.size(), 0.0f) {}
+        environment(s.environment.size(), 0.0f), normals(s.mesh.positions.size(), 0.0f) {}
+
+  // Moves the gradient w.r.t. the vertex normals into the positions (the
+  // second level of two-level normals). Called by the passes after a sweep.
+  void fold_normals(const HostScene& s) {
+    bool any = false;
+    for (float g : normals) any = any || g != 0.0f;
+    if (!any) return;
+    s.mesh.normals_backward(normals.data(), positions.data());
+    std::fill(normals.begin(), normals.end(), 0.0f);
+  }
 
   // Points the buffers of `set` at these arrays.
   void attach(ad::ParamSet& set) {
@@ -138,6 +159,7 @@ struct SceneGradient {
     set.buffers[param_ior].gradient = ior.data();
     set.buffers[param_absorption].gradient = absorption.data();
     set.buffers[param_environment].gradient = environment.data();
+    set.buffers[param_normals].gradient = normals.data();
   }
 };
 

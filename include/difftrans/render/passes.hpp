@@ -101,7 +101,7 @@ std::vector<float> render_gradient(const HostScene& s, const scene::Camera& cam,
                                    SceneGradient& grad, const PassOptions& opt = {}, PassStats* stats = nullptr) {
   using V = ad::Var<T>;
   std::vector<float> image(std::size_t(cam.width) * cam.height * 3, 0.0f);
-  const SceneView view = s.view(true);
+  const SceneView view = s.view(true, true);
   ad::ParamSet params = s.params();
   grad.attach(params);
   ThreadPool& pool = ThreadPool::global();
@@ -137,6 +137,7 @@ std::vector<float> render_gradient(const HostScene& s, const scene::Camera& cam,
       reader.scatter();
     });
   });
+  grad.fold_normals(s);
   if (stats) *stats = st.total();
   return image;
 }

@@ -9,6 +9,7 @@
 
 #include "difftrans/ad/glm.hpp"
 #include "difftrans/ad/params.hpp"
+#include "difftrans/core/parallel.hpp"
 #include "difftrans/scene/param_source.hpp"
 
 namespace difftrans::scene {
@@ -37,6 +38,11 @@ struct MeshView {
   ParamSource positions;
   const std::int32_t* triangles = nullptr;
   const float* vertex_normals = nullptr;
+  // The same normals as a parameter source: when differentiable (buffer >= 0)
+  // an AD pass reads them as leaves of their own, and the caller folds their
+  // gradient back into the positions once per pass (normals_backward), which
+  // is far cheaper than recomputing every hit's one-rings on the tape.
+  ParamSource normals;
   const std::int32_t* vf_offsets = nullptr;
   const std::int32_t* vf_faces = nullptr;
   std::int32_t num_vertices = 0;
@@ -44,9 +50,11 @@ struct MeshView {
 };
 
 enum class NormalMode : int {
-  automatic,    // one_ring when S carries derivatives and positions are differentiable, else precomputed
+  automatic,    // parameter when m.normals is differentiable; else one_ring when S carries derivatives
+                // and positions are differentiable; else precomputed
   precomputed,  // the float array (constants: no derivative through normals)
   one_ring,     // recomputed in S from the one-rings
+  parameter,    // read through the reader from m.normals (two-level: see MeshView::normals)
 };
 
 // Result of Möller–Trumbore in S.
@@ -186,8 +194,16 @@ DT_HOST_DEVICE Vec3<S> vertex_normal(Reader& reader, const MeshView& m, std::int
 namespace detail {
 
 template <class S>
+DT_HOST_DEVICE bool use_normal_parameter(const MeshView& m, NormalMode mode) {
+  if (!m.normals.values) return false;
+  return mode == NormalMode::parameter || (mode == NormalMode::automatic && m.normals.differentiable());
+}
+
+template <class S>
 DT_HOST_DEVICE bool use_one_ring(const MeshView& m, NormalMode mode) {
+  if (mode == NormalMode::parameter) return false;
   if (mode == NormalMode::one_ring) return m.vf_offsets != nullptr;
+  if (mode == NormalMode::automatic && m.normals.differentiable()) return false;
   if (mode == NormalMode::precomputed) return m.vertex_normals == nullptr && m.vf_offsets != nullptr;
   return (m.vertex_normals == nullptr || (ad::is_ad_v<S> && m.positions.differentiable())) &&
          m.vf_offsets != nullptr;
@@ -207,7 +223,9 @@ DT_HOST_DEVICE SurfacePoint<S> surface_point_cached(Reader& reader, const MeshVi
   sp.valid = unit_face_normal(p0, p1, p2, sp.ng);
   if (!sp.valid) sp.ng = Vec3<S>(S(0), S(0), S(0));
   Vec3<S> vn[3];
-  if (use_one_ring<S>(m, mode)) {
+  if (use_normal_parameter<S>(m, mode)) {
+    for (int k = 0; k < 3; ++k) vn[k] = load3<S>(reader, m.normals, idx[k]);
+  } else if (use_one_ring<S>(m, mode)) {
     for (int k = 0; k < 3; ++k) vn[k] = vertex_normal_cached(reader, m, idx[k], cache);
   } else if (m.vertex_normals) {
     for (int k = 0; k < 3; ++k) {
@@ -313,13 +331,46 @@ class TriangleMesh {
     }
   }
 
+  // Adds to grad_positions the gradient that flows through the vertex
+  // normals, given the gradient w.r.t. them (3 per vertex): the second level
+  // of MeshView::normals. Each vertex's normal is recomputed from its one-ring
+  // on a small tape; vertices with a zero normal gradient cost nothing.
+  void normals_backward(const float* grad_normals, float* grad_positions) const {
+    using V = ad::Var<float>;
+    ad::ParamSet set;
+    set.buffers[0].values = positions.data();
+    set.buffers[0].size = std::int32_t(positions.size());
+    set.buffers[0].gradient = grad_positions;
+    const MeshView m = view(0);
+    parallel_for(num_vertices(), 256, [&](std::int64_t b, std::int64_t e, int) {
+      ad::Tape<float> tape(1 << 14);
+      std::vector<ad::LeafRecord> log(1 << 12);
+      ad::ParamReader<V> reader(&set, &tape, log.data(), std::int32_t(log.size()));
+      for (std::int64_t v = b; v < e; ++v) {
+        const float* g = grad_normals + 3 * v;
+        if (g[0] == 0.0f && g[1] == 0.0f && g[2] == 0.0f) continue;
+        tape.reset();
+        reader.clear();
+        const Vec3<V> n = vertex_normal<V>(reader, m, std::int32_t(v));
+        if (tape.overflowed() || reader.overflowed()) continue;  // valence beyond 1000: skipped
+        tape.zero_adjoints();
+        for (int c = 0; c < 3; ++c) tape.seed(n[c], g[c]);
+        tape.propagate();
+        reader.scatter();
+      }
+    });
+  }
+
   // The view for the generic path; position_buffer >= 0 makes the positions
-  // that parameter buffer of the pass's ParamSet.
-  MeshView view(int position_buffer = -1) const {
+  // that parameter buffer of the pass's ParamSet, normal_buffer >= 0 the
+  // vertex normals (two-level normals, see MeshView::normals).
+  MeshView view(int position_buffer = -1, int normal_buffer = -1) const {
     MeshView m;
     m.positions = ParamSource{positions.data(), std::int32_t(positions.size()), position_buffer};
     m.triangles = triangles.data();
     m.vertex_normals = vertex_normals.size() == positions.size() ? vertex_normals.data() : nullptr;
+    m.normals = ParamSource{m.vertex_normals, m.vertex_normals ? std::int32_t(vertex_normals.size()) : 0,
+                            m.vertex_normals ? normal_buffer : -1};
     m.vf_offsets = vf_offsets.empty() ? nullptr : vf_offsets.data();
     m.vf_faces = vf_faces.data();
     m.num_vertices = num_vertices();
