@@ -47,6 +47,10 @@ TEST_CASE("OBJ: bad input gives an Error with file and line") {
   CHECK(bad("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -4\n") ==
         f + ":4: relative face vertex index -4 is out of range: only 3 vertices so far");
   CHECK(bad("v 0 0 0\nf 1 x 1\n") == f + ":2: face vertex 'x' is not an index");
+  // found by scripts/fuzz.sh: indices beyond long used to negate LONG_MIN (undefined behaviour)
+  CHECK(bad("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -66666666666666666666666661 -2 -3\n") ==
+        f + ":4: face vertex index '-66666666666666666666666661' is out of range");
+  CHECK(bad("v 0 0 0\nf 99999999999999999999999/2 1 1\n") == f + ":2: face vertex index '99999999999999999999999' is out of range");
   CHECK(error_of([&] { io::read_obj(dir / "missing.obj"); }) == (dir / "missing.obj").string() + ": file not found");
 }
 

@@ -126,6 +126,11 @@ TEST_CASE("PLY: bad input gives an Error naming the file and the problem") {
   CHECK(bad(head + "0 0 0\n1 0 0\n0 1 oops\n3 0 1 2\n") == f + ":12: 'oops' is not a number, reading vertex 2");
   CHECK(bad(head + "0 0 0\n1 0 0\n0 1 0\n3 0 1.5 2\n") == f + ":13: '1.5' is not an integer, reading face 0");
   CHECK(bad(head + "0 0 0\n1 0 0\n") == f + ":12: unexpected end of file while reading vertex 2");
+  // found by scripts/fuzz.sh: huge numbers in messages used to be cast to long (undefined behaviour)
+  CHECK(contains(bad(head + "0 0 0\n1 0 0\n0 1 0\n3 0 1 26666666666666666666666\n"),
+                 ":13: face 0: vertex index 266666666666666"));  // printed as the double it was read as
+  CHECK(contains(bad(head + "0 0 0\n1 0 0\n0 1 0\n2666666666666666666666666666666 0 1 2\n"),
+                 "list length 2666666666666666"));
   // binary: a face list that runs past the end, an element count larger than the file
   std::string bin = "ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
                     "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";

@@ -71,13 +71,16 @@ inline ObjStatements scan_obj(const std::string& text, const std::filesystem::pa
       const auto t = tokens(i + 1);
       for (const auto& tok : t) {
         char* stop = nullptr;
+        errno = 0;
         const long index = std::strtol(tok.c_str(), &stop, 10);
         if (stop == tok.c_str() || (*stop != '\0' && *stop != '/'))
           throw Error(file, "face vertex '" + tok + "' is not an index", line);
+        if (errno == ERANGE)  // (found by scripts/fuzz.sh: negating LONG_MIN was undefined)
+          throw Error(file, "face vertex index '" + tok.substr(0, tok.find('/')) + "' is out of range", line);
         if (index == 0) throw Error(file, "face vertex index 0 (OBJ indices start at 1)", line);
         if (index < 0) {
           const long available = long(st.vertex_lines.size());
-          if (-index > available)
+          if (index < -available)
             throw Error(file, "relative face vertex index " + std::to_string(index) + " is out of range: only " +
                                   std::to_string(available) + " vertices so far", line);
         } else {

@@ -139,6 +139,16 @@ class PlyBody {
 // element "vertex" with properties x, y, z; faces come from the list property
 // "vertex_indices" (or "vertex_index") of element "face"; everything else is
 // skipped. Throws Error on bad input; appends warnings to *warnings if given.
+namespace detail {
+// A whole number read as double, printed without the undefined behaviour of
+// casting an out-of-range value to long (found by scripts/fuzz.sh).
+inline std::string integer_text(double x) {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%.0f", x);
+  return buf;
+}
+}  // namespace detail
+
 inline Mesh parse_ply(const std::string& text, const std::filesystem::path& file,
                       std::vector<std::string>* warnings = nullptr) {
   using namespace detail;
@@ -278,13 +288,13 @@ inline Mesh parse_ply(const std::string& text, const std::filesystem::path& file
         if (k == 0) first_line = body.line();
         if (n < 0) body.fail(what + ": negative list length");
         if (body.ascii() ? n > double(body.remaining()) / 2 + 1 : n * ply_size(p.type) > double(body.remaining()))
-          body.fail(what + ": list length " + std::to_string(long(n)) + " exceeds the file");
+          body.fail(what + ": list length " + detail::integer_text(n) + " exceeds the file");
         if (int(k) == indices) face.clear();
         for (long j = 0; j < long(n); ++j) {
           const double v = body.read(p.type, what);
           if (int(k) != indices) continue;
           if (v < 0 || v >= double(mesh.positions.size()))
-            body.fail("face " + std::to_string(i) + ": vertex index " + std::to_string(long(v)) +
+            body.fail("face " + std::to_string(i) + ": vertex index " + detail::integer_text(v) +
                       " is out of range [0, " + std::to_string(mesh.positions.size()) + ")" +
                       (have_vertices ? "" : " (no vertex element before the faces)"));
           face.push_back(int(v));
