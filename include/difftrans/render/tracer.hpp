@@ -46,7 +46,7 @@ struct TraceStats {
   std::int32_t pruned = 0;        // branches dropped by the throughput threshold
   std::int32_t fallback_hits = 0; // hits whose triangle could not be re-evaluated in S (BVH values used)
   double cut_weight = 0;          // mean RGB weight of the dropped branches: the radiance lost, per unit radiance
-  void add(const TraceStats& o) {
+  DT_HOST_DEVICE void add(const TraceStats& o) {
     cut_weight += o.cut_weight;
     segments += o.segments;
     hits += o.hits;

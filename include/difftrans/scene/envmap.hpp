@@ -97,13 +97,28 @@ DT_HOST_DEVICE Vec3<T> uv_to_direction(T u, T v) {
   return Vec3<T>(s * sin(phi), cos(theta), -s * cos(phi));
 }
 
-// Bilinear lookup at (u, v) of an equirectangular map, generic over S.
-template <class S, class Reader>
-DT_HOST_DEVICE Vec3<S> lookup_uv(Reader& reader, const EnvMap& env, const Vec2<S>& uv) {
+// The four texels (items: index / 3 of their R entry) a bilinear lookup at
+// (u, v) blends, and their weights in S. The one place the interpolation is
+// defined: lookup_uv uses it, and so does the least-squares fit of a map.
+template <class S>
+struct Footprint {
+  std::int32_t texel[4];
+  S weight[4];
+  bool valid;  // false for an empty map or non-finite (u, v)
+};
+
+template <class S>
+DT_HOST_DEVICE Footprint<S> bilinear_footprint(int w, int h, const Vec2<S>& uv) {
   using T = ad::scalar_t<S>;
-  if (env.kind == EnvironmentKind::constant) return load3<S>(reader, env.texels, 0);
-  const int w = env.width, h = env.height;
-  if (w < 1 || h < 1 || !isfinite(value_of(uv.x)) || !isfinite(value_of(uv.y))) return Vec3<S>(S(0), S(0), S(0));
+  Footprint<S> f;
+  f.valid = w >= 1 && h >= 1 && isfinite(value_of(uv.x)) && isfinite(value_of(uv.y));
+  if (!f.valid) {
+    for (int k = 0; k < 4; ++k) {
+      f.texel[k] = 0;
+      f.weight[k] = S(0);
+    }
+    return f;
+  }
   // columns: wrap around the seam
   const S fu = uv.x * T(w) - T(0.5);
   const T fu_floor = floor(value_of(fu));
@@ -119,12 +134,27 @@ DT_HOST_DEVICE Vec3<S> lookup_uv(Reader& reader, const EnvMap& env, const Vec2<S
   if (r0 > h - 2) r0 = h - 2 < 0 ? 0 : h - 2;
   const int r1 = r0 + 1 < h ? r0 + 1 : r0;
   const S tv = fv - T(r0);  // in [0, 1] (0 when h == 1)
-  const S w00 = (T(1) - tu) * (T(1) - tv), w01 = tu * (T(1) - tv);
-  const S w10 = (T(1) - tu) * tv, w11 = tu * tv;
-  const Vec3<S> t00 = load3<S>(reader, env.texels, r0 * w + c0), t01 = load3<S>(reader, env.texels, r0 * w + c1);
-  const Vec3<S> t10 = load3<S>(reader, env.texels, r1 * w + c0), t11 = load3<S>(reader, env.texels, r1 * w + c1);
+  f.texel[0] = r0 * w + c0;
+  f.texel[1] = r0 * w + c1;
+  f.texel[2] = r1 * w + c0;
+  f.texel[3] = r1 * w + c1;
+  f.weight[0] = (T(1) - tu) * (T(1) - tv);
+  f.weight[1] = tu * (T(1) - tv);
+  f.weight[2] = (T(1) - tu) * tv;
+  f.weight[3] = tu * tv;
+  return f;
+}
+
+// Bilinear lookup at (u, v) of an equirectangular map, generic over S.
+template <class S, class Reader>
+DT_HOST_DEVICE Vec3<S> lookup_uv(Reader& reader, const EnvMap& env, const Vec2<S>& uv) {
+  if (env.kind == EnvironmentKind::constant) return load3<S>(reader, env.texels, 0);
+  const Footprint<S> f = bilinear_footprint(env.width, env.height, uv);
+  if (!f.valid) return Vec3<S>(S(0), S(0), S(0));
+  Vec3<S> t[4];
+  for (int k = 0; k < 4; ++k) t[k] = load3<S>(reader, env.texels, f.texel[k]);
   Vec3<S> c;
-  for (int k = 0; k < 3; ++k) c[k] = t00[k] * w00 + t01[k] * w01 + t10[k] * w10 + t11[k] * w11;
+  for (int k = 0; k < 3; ++k) c[k] = t[0][k] * f.weight[0] + t[1][k] * f.weight[1] + t[2][k] * f.weight[2] + t[3][k] * f.weight[3];
   return c;
 }
 
