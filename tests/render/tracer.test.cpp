@@ -154,7 +154,9 @@ void check_against_differences(HostScene& s, const std::vector<TestRay>& rays, c
   };
   check("ior", g.ior[0], s.ior, 1e-3, nothing);
   for (std::size_t i : largest(g.positions, 8))
-    check("vertex coordinate", g.positions[i], s.mesh.positions[i], 1e-3, [&] { s.positions_changed(); });
+    // steps well below spot's edge length: at 1e-3 a path may change triangle within the step
+    // (measured: spot's coordinate 7174 gives FD -133 at h = 1e-3, -6.6203 at 1e-4, reverse -6.6245)
+    check("vertex coordinate", g.positions[i], s.mesh.positions[i], 1e-4, [&] { s.positions_changed(); });
   for (std::size_t i : largest(g.environment, 4)) check("texel", g.environment[i], s.environment[i], 1e-2, nothing);
   for (std::size_t i : largest(g.absorption, 6)) check("absorption", g.absorption[i], s.absorption_raw[i], 1e-3, nothing);
   CHECK(checked >= 11);
