@@ -1,0 +1,320 @@
+// The tracer on the GPU: a HostScene and its portable BVH uploaded to device
+// buffers, and the passes of render/passes.hpp (image, directional derivative
+// with Dual<float, 1>, gradient with Var<float>) as CUDA launches of the
+// per-pixel kernels in cuda/render_kernels.hpp. Compiled only by nvcc.
+// (render/passes.hpp is not included: its host passes instantiate the tracer
+// with EmbreeScene, which nvcc would warn about in every device TU.)
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "difftrans/accel/bvh.hpp"
+#include "difftrans/cuda/launch.cuh"
+#include "difftrans/cuda/render_kernels.hpp"
+#include "difftrans/render/host_scene.hpp"
+
+namespace difftrans::cuda {
+
+namespace detail {
+template <class T>
+std::unique_ptr<DeviceBuffer<T>> upload_vector(const std::vector<T>& v) {
+  auto b = std::make_unique<DeviceBuffer<T>>(v.size());
+  if (!v.empty()) b->upload(v.data());
+  return b;
+}
+template <class T>
+std::unique_ptr<DeviceBuffer<T>> upload_array(const T* p, std::size_t n) {
+  auto b = std::make_unique<DeviceBuffer<T>>(n);
+  if (n) b->upload(p);
+  return b;
+}
+}  // namespace detail
+
+// A device copy of a HostScene (mesh positions, triangles, vertex normals,
+// vertex -> face adjacency, IoR, absorption parameters, environment texels)
+// and of a Bvh over its mesh. Views and parameter sets it hands out hold
+// device pointers, with the same buffer ids as HostScene (render::ParamId).
+class DeviceScene {
+ public:
+  DeviceScene(const render::HostScene& s, const accel::Bvh& bvh) : host_(&s) {
+    upload(s);
+    upload_bvh(bvh);
+  }
+
+  // After the host scene's parameters changed (e.g. an optimizer step):
+  // re-uploads every array; pass the refitted or rebuilt BVH as well.
+  void update(const render::HostScene& s, const accel::Bvh& bvh) {
+    upload(s);
+    upload_bvh(bvh);
+  }
+
+  // The tracer's view with device pointers (ad, reverse: as HostScene::view).
+  render::SceneView view(bool ad, bool reverse = false) const {
+    render::SceneView v = host_->view(ad, reverse);
+    v.mesh.positions.values = positions_->data();
+    v.mesh.triangles = triangles_->data();
+    v.mesh.vertex_normals = v.mesh.vertex_normals ? normals_->data() : nullptr;
+    v.mesh.normals.values = v.mesh.normals.values ? normals_->data() : nullptr;
+    v.mesh.vf_offsets = v.mesh.vf_offsets ? vf_offsets_->data() : nullptr;
+    v.mesh.vf_faces = vf_faces_->data();
+    v.ior.values = ior_->data();
+    v.absorption.params.values = absorption_->data();
+    v.environment.texels.values = environment_->data();
+    return v;
+  }
+
+  accel::BvhView bvh() const {
+    accel::BvhView b;
+    b.nodes = nodes_->data();
+    b.vertices = bvh_vertices_->data();
+    b.prims = prims_->data();
+    b.node_count = node_count_;
+    b.triangle_count = triangle_count_;
+    return b;
+  }
+
+  // Values of every parameter buffer as device pointers (host-side struct).
+  ad::ParamSet params() const {
+    ad::ParamSet set;
+    set.buffers[render::param_positions] = {positions_->data(), std::int32_t(positions_->size())};
+    set.buffers[render::param_ior] = {ior_->data(), 1};
+    set.buffers[render::param_absorption] = {absorption_->data(), std::int32_t(absorption_->size())};
+    set.buffers[render::param_environment] = {environment_->data(), std::int32_t(environment_->size())};
+    set.buffers[render::param_normals] = {normals_->data(), std::int32_t(normals_->size())};
+    return set;
+  }
+
+  float* positions() { return positions_->data(); }
+  const render::HostScene& host() const { return *host_; }
+
+ private:
+  void upload(const render::HostScene& s) {
+    host_ = &s;
+    positions_ = detail::upload_vector(s.mesh.positions);
+    triangles_ = detail::upload_vector(s.mesh.triangles);
+    normals_ = detail::upload_vector(s.mesh.vertex_normals);
+    vf_offsets_ = detail::upload_vector(s.mesh.vf_offsets);
+    vf_faces_ = detail::upload_vector(s.mesh.vf_faces);
+    ior_ = detail::upload_array(&s.ior, 1);
+    absorption_ = detail::upload_vector(s.absorption_raw);
+    environment_ = detail::upload_vector(s.environment);
+  }
+  void upload_bvh(const accel::Bvh& bvh) {
+    nodes_ = detail::upload_vector(bvh.nodes());
+    bvh_vertices_ = detail::upload_vector(bvh.vertices());
+    prims_ = detail::upload_vector(bvh.prims());
+    node_count_ = std::int32_t(bvh.nodes().size());
+    triangle_count_ = bvh.triangle_count();
+  }
+
+  const render::HostScene* host_;
+  std::unique_ptr<DeviceBuffer<float>> positions_, normals_, ior_, absorption_, environment_, bvh_vertices_;
+  std::unique_ptr<DeviceBuffer<std::int32_t>> triangles_, vf_offsets_, vf_faces_, prims_;
+  std::unique_ptr<DeviceBuffer<accel::BvhNode>> nodes_;
+  std::int32_t node_count_ = 0, triangle_count_ = 0;
+};
+
+// As render::PassOptions, for the device passes.
+struct PassOptions {
+  render::TraceSettings trace;
+  int samples_per_axis = 1;                  // n: n² sub-pixel samples at the centres of an n×n grid
+  std::int32_t tape_capacity = 1 << 14;      // reverse mode: nodes per ray (a TapePool slot)
+  std::int32_t leaf_log_capacity = 1 << 11;  // reverse mode: parameter leaves per ray
+  std::size_t tape_memory = std::size_t(1) << 31;  // reverse mode: bytes of tapes; pixels run in waves that fit
+};
+
+// The image (value) and its derivative along a direction, as render::ImageDerivative.
+struct ImageDerivative {
+  std::vector<float> value, derivative;
+};
+
+// What a device pass reports (summed over pixels).
+struct DevicePassStats {
+  std::uint64_t rays = 0, segments = 0, hits = 0, overflowed_rays = 0;
+  std::uint32_t max_tape_nodes = 0;
+  double milliseconds = 0;  // kernel time (CUDA events)
+};
+
+namespace detail {
+
+// Runs `kernel` over every pixel with counters and timing, synchronously.
+template <class K>
+void run_pixels(const K& kernel, const scene::Camera& cam, int samples, DeviceBuffer<std::uint32_t>& counters,
+                DevicePassStats* stats, int block = 128) {
+  const int n = cam.width * cam.height;
+  cudaEvent_t start, stop;
+  check(cudaEventCreate(&start), "cudaEventCreate");
+  check(cudaEventCreate(&stop), "cudaEventCreate");
+  check(cudaEventRecord(start), "cudaEventRecord");
+  launch(n, kernel, block);
+  check(cudaEventRecord(stop), "cudaEventRecord");
+  check(cudaEventSynchronize(stop), "kernel");
+  float ms = 0;
+  check(cudaEventElapsedTime(&ms, start, stop), "cudaEventElapsedTime");
+  cudaEventDestroy(start);
+  cudaEventDestroy(stop);
+  if (stats) {
+    std::uint32_t c[counter_count];
+    counters.download(c);
+    stats->rays = std::uint64_t(n) * std::uint64_t(samples) * std::uint64_t(samples);
+    stats->segments = c[counter_segments];
+    stats->hits = c[counter_hits];
+    stats->overflowed_rays = c[counter_overflow];
+    stats->max_tape_nodes = c[counter_max_tape];
+    stats->milliseconds = ms;
+  }
+}
+
+// A job for the scene and camera, with device image and counter buffers.
+inline PixelJob make_job(const DeviceScene& ds, bool ad, bool reverse, const scene::Camera& cam,
+                         const PassOptions& opt, const ad::ParamSet* d_params, DeviceBuffer<float>& image,
+                         DeviceBuffer<std::uint32_t>& counters) {
+  PixelJob job;
+  job.scene = ds.view(ad, reverse);
+  job.bvh = ds.bvh();
+  job.camera = cam;
+  job.trace = opt.trace;
+  job.params = d_params;
+  job.samples_per_axis = opt.samples_per_axis;
+  job.image = image.data();
+  std::uint32_t zero[counter_count] = {0, 0, 0, 0};
+  counters.upload(zero);
+  job.counters = counters.data();
+  return job;
+}
+
+}  // namespace detail
+
+// Linear RGB radiance, width·height·3 floats, as render::render_image.
+inline std::vector<float> render_image(const DeviceScene& ds, const scene::Camera& cam,
+                                       const PassOptions& opt = {}, DevicePassStats* stats = nullptr) {
+  const std::size_t n = std::size_t(cam.width) * std::size_t(cam.height) * 3;
+  DeviceBuffer<float> image(n);
+  DeviceBuffer<std::uint32_t> counters(counter_count);
+  DeviceBuffer<ad::ParamSet> params(1);
+  const ad::ParamSet set = ds.params();
+  params.upload(&set);
+  const PixelJob job = detail::make_job(ds, false, false, cam, opt, params.data(), image, counters);
+  detail::run_pixels(RenderPixel<float>{job}, cam, opt.samples_per_axis, counters, stats);
+  std::vector<float> out(n);
+  image.download(out.data());
+  return out;
+}
+
+// The image and its derivative along `direction` (host arrays, one per
+// parameter buffer, null where the direction is zero), as render::render_derivative.
+inline ImageDerivative render_derivative(const DeviceScene& ds, const scene::Camera& cam,
+                                                 const float* const direction[render::param_count],
+                                                 const PassOptions& opt = {}, DevicePassStats* stats = nullptr) {
+  const std::size_t n = std::size_t(cam.width) * std::size_t(cam.height) * 3;
+  DeviceBuffer<float> image(n), derivative(n);
+  DeviceBuffer<std::uint32_t> counters(counter_count);
+  ad::ParamSet set = ds.params();
+  std::vector<std::unique_ptr<DeviceBuffer<float>>> tangents;
+  for (int b = 0; b < render::param_count; ++b)
+    if (direction[b]) {
+      tangents.push_back(detail::upload_array(direction[b], std::size_t(set.buffers[b].size)));
+      set.buffers[b].tangents[0] = tangents.back()->data();
+    }
+  DeviceBuffer<ad::ParamSet> params(1);
+  params.upload(&set);
+  PixelJob job = detail::make_job(ds, true, false, cam, opt, params.data(), image, counters);
+  job.derivative = derivative.data();
+  detail::run_pixels(RenderPixel<ad::Dual<float, 1>>{job}, cam, opt.samples_per_axis, counters, stats);
+  ImageDerivative out;
+  out.value.resize(n);
+  out.derivative.resize(n);
+  image.download(out.value.data());
+  derivative.download(out.derivative.data());
+  return out;
+}
+
+// Adds to `grad` dLoss/dparameter given dLoss/dpixel (host, width·height·3),
+// as render::render_gradient. Returns the image. Tapes: LocalTapeCapacity = 0
+// (default) cuts them from one device buffer (opt.tape_capacity nodes per
+// ray; pixels run in waves of as many threads as opt.tape_memory holds);
+// otherwise each thread keeps a tape of LocalTapeCapacity nodes in its local
+// memory (GradientPixel). Rays that overflow are dropped and counted in stats.
+template <int LocalTapeCapacity = 0, int LocalLogCapacity = 512>
+std::vector<float> render_gradient(const DeviceScene& ds, const scene::Camera& cam, const float* pixel_adjoint,
+                                   render::SceneGradient& grad, const PassOptions& opt = {},
+                                   DevicePassStats* stats = nullptr) {
+  const int pixels = cam.width * cam.height;
+  const std::size_t n = std::size_t(pixels) * 3;
+  DeviceBuffer<float> image(n);
+  DeviceBuffer<std::uint32_t> counters(counter_count);
+  auto adjoint = detail::upload_array(pixel_adjoint, n);
+  std::vector<float>* host_grads[render::param_count] = {};
+  host_grads[render::param_positions] = &grad.positions;
+  host_grads[render::param_ior] = &grad.ior;
+  host_grads[render::param_absorption] = &grad.absorption;
+  host_grads[render::param_environment] = &grad.environment;
+  host_grads[render::param_normals] = &grad.normals;
+  ad::ParamSet set = ds.params();
+  std::vector<std::unique_ptr<DeviceBuffer<float>>> d_grads;
+  for (int b = 0; b < render::param_count; ++b) {
+    std::vector<float> zeros(host_grads[b]->size(), 0.0f);
+    d_grads.push_back(detail::upload_vector(zeros));
+    set.buffers[b].gradient = d_grads.back()->data();
+  }
+  DeviceBuffer<ad::ParamSet> params(1);
+  params.upload(&set);
+  // two-level normals (HostScene::view(true, true)): the normals' gradient is
+  // folded into the positions on the host afterwards
+  PixelJob job = detail::make_job(ds, true, true, cam, opt, params.data(), image, counters);
+  job.pixel_adjoint = adjoint->data();
+  if constexpr (LocalTapeCapacity > 0) {
+    detail::run_pixels(GradientPixel<LocalTapeCapacity, LocalLogCapacity>{job}, cam, opt.samples_per_axis,
+                       counters, stats, 64);
+  } else {
+    const std::int32_t cap = opt.tape_capacity < 16 ? 16 : opt.tape_capacity;
+    const std::int32_t log_cap = opt.leaf_log_capacity < 16 ? 16 : opt.leaf_log_capacity;
+    const std::size_t per_slot = std::size_t(cap) * ad::Tape<float>::bytes_per_node +
+                                 std::size_t(log_cap) * sizeof(ad::LeafRecord);
+    std::size_t slots = opt.tape_memory / per_slot;
+    slots = slots < 64 ? 64 : (slots > std::size_t(pixels) ? std::size_t(pixels) : slots);
+    DeviceBuffer<ad::Node<float>> nodes(slots * std::size_t(cap));
+    DeviceBuffer<float> adjoints(slots * std::size_t(cap));
+    DeviceBuffer<ad::LeafRecord> logs(slots * std::size_t(log_cap));
+    PooledGradientPixel k{job, TapePool{nodes.data(), adjoints.data(), logs.data(), cap, log_cap}, 0, pixels};
+    double ms = 0;
+    for (int first = 0; first < pixels; first += int(slots)) {
+      k.first_pixel = first;
+      cudaEvent_t start, stop;
+      check(cudaEventCreate(&start), "cudaEventCreate");
+      check(cudaEventCreate(&stop), "cudaEventCreate");
+      check(cudaEventRecord(start), "cudaEventRecord");
+      launch(int(slots), k, 64);
+      check(cudaEventRecord(stop), "cudaEventRecord");
+      check(cudaEventSynchronize(stop), "kernel");
+      float wave_ms = 0;
+      check(cudaEventElapsedTime(&wave_ms, start, stop), "cudaEventElapsedTime");
+      ms += wave_ms;
+      cudaEventDestroy(start);
+      cudaEventDestroy(stop);
+    }
+    if (stats) {
+      std::uint32_t c[counter_count];
+      counters.download(c);
+      stats->rays = std::uint64_t(pixels) * std::uint64_t(opt.samples_per_axis) * std::uint64_t(opt.samples_per_axis);
+      stats->segments = c[counter_segments];
+      stats->hits = c[counter_hits];
+      stats->overflowed_rays = c[counter_overflow];
+      stats->max_tape_nodes = c[counter_max_tape];
+      stats->milliseconds = ms;
+    }
+  }
+  for (int b = 0; b < render::param_count; ++b) {
+    std::vector<float> g(host_grads[b]->size());
+    if (!g.empty()) d_grads[std::size_t(b)]->download(g.data());
+    for (std::size_t i = 0; i < g.size(); ++i) (*host_grads[b])[i] += g[i];
+  }
+  grad.fold_normals(ds.host());
+  std::vector<float> out(n);
+  image.download(out.data());
+  return out;
+}
+
+}  // namespace difftrans::cuda

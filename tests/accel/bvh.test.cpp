@@ -1,0 +1,613 @@
+// Portable BVH against Embree (an independent implementation) on the same
+// rays: spot and bunny from shared/data, rays from outside and inside, with
+// tnear/tfar windows; the analytic cube; rays through edges and vertices of
+// closed meshes never slip through; degenerate triangles never reported; bad
+// input rejected; refit and rebuild; tree invariants; and the generic tracer
+// gives the same radiance with either intersector.
+#include "support/ad_check.hpp"
+#include "support/shapes.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <random>
+
+#include "difftrans/accel/bvh.hpp"
+#include "difftrans/cuda/render_kernels.hpp"
+#include "difftrans/render/passes.hpp"
+
+using namespace dt_test;
+using difftrans::Vec3f;
+using difftrans::accel::Bvh;
+using difftrans::accel::BvhNode;
+using difftrans::accel::EmbreeScene;
+using difftrans::accel::RayHit;
+
+namespace {
+
+struct Ray {
+  Vec3f o, d;
+  float tnear, tfar;
+};
+
+Bvh make_bvh(const Shape& s, const std::string& name = "mesh") {
+  return Bvh(s.positions.data(), std::int32_t(s.positions.size() / 3), s.triangles.data(),
+             std::int32_t(s.triangles.size() / 3), name);
+}
+EmbreeScene* make_embree(const Shape& s) {
+  return new EmbreeScene(s.positions.data(), std::int32_t(s.positions.size() / 3), s.triangles.data(),
+                         std::int32_t(s.triangles.size() / 3), "mesh");
+}
+
+Vec3f vertex(const Shape& s, std::int32_t i) {
+  return Vec3f(s.positions[3 * std::size_t(i)], s.positions[3 * std::size_t(i) + 1], s.positions[3 * std::size_t(i) + 2]);
+}
+
+// The point the hit's barycentrics name on its triangle.
+Vec3f hit_point(const Shape& s, const RayHit& h) {
+  const std::int32_t* t = &s.triangles[3 * std::size_t(h.prim)];
+  return (1.0f - h.u - h.v) * vertex(s, t[0]) + h.u * vertex(s, t[1]) + h.v * vertex(s, t[2]);
+}
+
+Vec3f random_unit(std::mt19937& rng) {
+  std::normal_distribution<float> n(0.0f, 1.0f);
+  for (;;) {
+    const Vec3f v(n(rng), n(rng), n(rng));
+    const float l = glm::length(v);
+    if (l > 1e-3f) return v / l;
+  }
+}
+
+// Incoherent rays: from a sphere of radius 1.2 around the unit box towards
+// random points in it (mostly hits, some grazing, some misses), from random
+// points inside the box in random directions, and a quarter of them with a
+// random [tnear, tfar] window.
+std::vector<Ray> random_rays(int n, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(-0.5f, 0.5f), w(0.0f, 1.0f);
+  std::vector<Ray> rays;
+  for (int i = 0; i < n; ++i) {
+    Ray r;
+    if (i % 2 == 0) {
+      r.o = 1.2f * random_unit(rng);
+      r.d = glm::normalize(Vec3f(u(rng), u(rng), u(rng)) - r.o);
+    } else {
+      r.o = Vec3f(u(rng), u(rng), u(rng)) * 0.8f;
+      r.d = random_unit(rng);
+    }
+    r.tnear = 0.0f;
+    r.tfar = std::numeric_limits<float>::infinity();
+    if (i % 4 == 1) {
+      r.tnear = 0.6f * w(rng);
+      r.tfar = r.tnear + 1.5f * w(rng);
+    }
+    rays.push_back(r);
+  }
+  return rays;
+}
+
+struct Agreement {
+  int rays = 0, hits = 0, hit_miss_differ = 0, other_prim = 0, bad_t = 0, bad_uv = 0, bad_point = 0;
+};
+
+Agreement compare_with_embree(const Shape& s, const Bvh& bvh, const EmbreeScene& em, const std::vector<Ray>& rays) {
+  Agreement a;
+  for (const Ray& r : rays) {
+    const RayHit e = em.intersect(r.o, r.d, r.tnear, r.tfar);
+    const RayHit b = bvh.intersect(r.o, r.d, r.tnear, r.tfar);
+    ++a.rays;
+    if (e.hit() != b.hit()) {
+      ++a.hit_miss_differ;
+      continue;
+    }
+    if (!e.hit()) continue;
+    ++a.hits;
+    const bool t_ok = std::abs(b.t - e.t) <= 1e-5f * std::max(1.0f, std::abs(e.t));
+    a.bad_t += !t_ok;
+    if (b.prim != e.prim) {
+      ++a.other_prim;  // a tie at a shared edge or vertex: the same t is all that is asked
+      continue;
+    }
+    // the barycentrics of a small triangle hit at a grazing angle amplify the
+    // rounding of t (a 1e-2 triangle at cos 0.02 turns 2e-7 in t into 1e-4 in
+    // u): ask for the same point on the triangle (2e-5 of the unit box) and
+    // loosely for the same numbers
+    RayHit bu = b;
+    bu.u = e.u;
+    bu.v = e.v;
+    const bool uv_ok = glm::length(hit_point(s, b) - hit_point(s, bu)) <= 2e-5f &&
+                       std::abs(b.u - e.u) <= 1e-3f && std::abs(b.v - e.v) <= 1e-3f;
+    if (!uv_ok)
+      std::printf("uv differ: o %.9g %.9g %.9g d %.9g %.9g %.9g prim %d t %.9g/%.9g u %.9g/%.9g v %.9g/%.9g\n", r.o.x,
+                  r.o.y, r.o.z, r.d.x, r.d.y, r.d.z, b.prim, b.t, e.t, b.u, e.u, b.v, e.v);
+    a.bad_uv += !uv_ok;
+    a.bad_point += !(glm::length(hit_point(s, b) - (r.o + b.t * r.d)) <= 1e-5f);
+  }
+  return a;
+}
+
+// Rays through the vertices and edge midpoints of a closed mesh, which must
+// cross the surface there (or earlier): from outside along the inward
+// normal (the mean of the vertex normals) and, for a mesh that is star-shaped
+// around `inside`, from that point out through them.
+int slipping_rays(const Shape& s, const Bvh& bvh, const Vec3f* inside, int* total) {
+  const difftrans::scene::TriangleMesh mesh(s.positions, s.triangles);
+  const auto normal = [&](std::int32_t v) {
+    return Vec3f(mesh.vertex_normals[3 * std::size_t(v)], mesh.vertex_normals[3 * std::size_t(v) + 1],
+                 mesh.vertex_normals[3 * std::size_t(v) + 2]);
+  };
+  int missed = 0;
+  const auto aim = [&](const Vec3f& target, const Vec3f& n) {
+    const Vec3f from = target + 0.7f * n;
+    missed += !bvh.intersect(from, glm::normalize(target - from)).hit();
+    ++*total;
+    if (inside) {
+      missed += !bvh.intersect(*inside, glm::normalize(target - *inside)).hit();
+      ++*total;
+    }
+  };
+  for (std::int32_t v = 0; v < std::int32_t(s.positions.size() / 3); ++v) aim(vertex(s, v), normal(v));
+  for (std::size_t f = 0; f < s.triangles.size(); f += 3)
+    for (int k = 0; k < 3; ++k) {
+      const std::int32_t a = s.triangles[f + std::size_t(k)], b = s.triangles[f + std::size_t((k + 1) % 3)];
+      aim(0.5f * (vertex(s, a) + vertex(s, b)), glm::normalize(normal(a) + normal(b)));
+    }
+  return missed;
+}
+
+}  // namespace
+
+TEST_CASE("closest hits on a cube: distance, barycentrics, inside rays, tnear and tfar") {
+  const Shape c = make_box(0.5f, 0.5f, 0.5f);
+  const Bvh bvh = make_bvh(c, "cube");
+  const auto h = bvh.intersect(Vec3f(0.1f, 0.2f, 5.0f), Vec3f(0, 0, -1));
+  REQUIRE(h.hit());
+  CHECK(h.t == doctest::Approx(4.5f).epsilon(1e-6));
+  CHECK(glm::length(hit_point(c, h) - Vec3f(0.1f, 0.2f, 0.5f)) < 1e-6f);
+  // from inside, the far wall
+  const auto in = bvh.intersect(Vec3f(0, 0, 0), Vec3f(1, 0, 0));
+  REQUIRE(in.hit());
+  CHECK(in.t == doctest::Approx(0.5f));
+  CHECK(glm::length(hit_point(c, in) - Vec3f(0.5f, 0, 0)) < 1e-6f);
+  // misses: beside the box, pointing away, window before the box
+  CHECK_FALSE(bvh.intersect(Vec3f(0, 2, 5), Vec3f(0, 0, -1)).hit());
+  CHECK_FALSE(bvh.intersect(Vec3f(0, 0, 5), Vec3f(0, 0, 1)).hit());
+  CHECK_FALSE(bvh.intersect(Vec3f(0, 0, 5), Vec3f(0, 0, -1), 0.0f, 4.0f).hit());
+  // tnear past the front face finds the back face; tfar between them the front
+  const auto back = bvh.intersect(Vec3f(0.1f, 0.2f, 5.0f), Vec3f(0, 0, -1), 5.0f, 100.0f);
+  REQUIRE(back.hit());
+  CHECK(back.t == doctest::Approx(5.5f));
+  CHECK(bvh.intersect(Vec3f(0.1f, 0.2f, 5.0f), Vec3f(0, 0, -1), 0.0f, 5.0f).t == doctest::Approx(4.5f));
+  CHECK_FALSE(bvh.intersect(Vec3f(0.1f, 0.2f, 5.0f), Vec3f(0, 0, -1), 5.6f, 100.0f).hit());
+  // a non-unit direction: t in units of |d|
+  CHECK(bvh.intersect(Vec3f(0.1f, 0.2f, 5.0f), Vec3f(0, 0, -2)).t == doctest::Approx(2.25f));
+  // zero, NaN and infinite directions and empty windows hit nothing
+  CHECK_FALSE(bvh.intersect(Vec3f(0, 0, 5), Vec3f(0, 0, 0)).hit());
+  CHECK_FALSE(bvh.intersect(Vec3f(0, 0, 5), Vec3f(0, std::nanf(""), -1)).hit());
+  CHECK_FALSE(bvh.intersect(Vec3f(0, 0, 5), Vec3f(0, 0, -std::numeric_limits<float>::infinity())).hit());
+  CHECK_FALSE(bvh.intersect(Vec3f(0, 0, 5), Vec3f(0, 0, -1), 3.0f, 2.0f).hit());
+  // an axis-parallel ray in the plane of a face (direction components exactly 0)
+  const auto along = bvh.intersect(Vec3f(-3.0f, 0.5f, 0.1f), Vec3f(1, 0, 0));
+  REQUIRE(along.hit());
+  CHECK(along.t == doctest::Approx(2.5f));
+}
+
+TEST_CASE("spot and bunny: the same hits as Embree on incoherent rays") {
+  for (const char* name : {"spot.obj", "bunny.obj"}) {
+    CAPTURE(name);
+    const Shape s = load_normalized_mesh(std::string(DIFFTRANS_SHARED_DATA_DIR) + "/meshes/" + name);
+    const Bvh bvh = make_bvh(s, name);
+    const std::unique_ptr<EmbreeScene> em(make_embree(s));
+    const auto rays = random_rays(40000, 11);
+    const Agreement a = compare_with_embree(s, bvh, *em, rays);
+    std::printf("%s: %d rays, %d hits, %d hit/miss differ, %d other triangle (tie), %d t, %d uv, %d point off\n",
+                name, a.rays, a.hits, a.hit_miss_differ, a.other_prim, a.bad_t, a.bad_uv, a.bad_point);
+    CHECK(a.hits > a.rays / 4);  // the ray set does hit the mesh
+    CHECK(a.hits < a.rays);      // and misses it
+    CHECK(a.hit_miss_differ <= a.rays / 20000);  // only where a ray grazes a silhouette within rounding
+    CHECK(a.other_prim <= a.hits / 5000);
+    CHECK(a.bad_t == 0);
+    CHECK(a.bad_uv == 0);
+    CHECK(a.bad_point == 0);
+  }
+}
+
+TEST_CASE("rays through edges and vertices of closed meshes never slip through") {
+  // the cube: sweeps across the diagonals (shared edges) of every face, and
+  // rays aimed at the corners, the edge midpoints and the face centres
+  const Shape c = make_box(0.5f, 0.5f, 0.5f);
+  const Bvh cube = make_bvh(c, "cube");
+  int missed = 0, total = 0;
+  for (int i = 0; i <= 400; ++i) {
+    const float s = -0.5f + float(i) / 400.0f;
+    const Vec3f sweeps[6][2] = {{{s, s, 3.0f}, {0, 0, -1}},  {{s, -s, 3.0f}, {0, 0, -1}}, {{3.0f, s, s}, {-1, 0, 0}},
+                                {{3.0f, s, -s}, {-1, 0, 0}}, {{s, 3.0f, s}, {0, -1, 0}},  {{-s, 3.0f, s}, {0, -1, 0}}};
+    for (const auto& r : sweeps) {
+      missed += !cube.intersect(r[0], r[1]).hit();
+      missed += !cube.intersect(-r[0], -r[1]).hit();
+      total += 2;
+    }
+  }
+  CHECK(missed == 0);
+  total = 0;
+  const Vec3f cube_inside(0.01f, -0.02f, 0.03f);
+  CHECK(slipping_rays(c, cube, &cube_inside, &total) == 0);
+  CHECK(total == 2 * (8 + 36));
+  // an icosphere (many valences, shared vertices at odd angles) and spot
+  const Shape ico = make_icosphere(0.5f, 3);
+  const Vec3f ico_inside(0.02f, 0.01f, -0.03f);
+  total = 0;
+  CHECK(slipping_rays(ico, make_bvh(ico), &ico_inside, &total) == 0);
+  CHECK(total > 2000);
+  const Shape spot = load_normalized_mesh(std::string(DIFFTRANS_SHARED_DATA_DIR) + "/meshes/spot.obj");
+  total = 0;
+  CHECK(slipping_rays(spot, make_bvh(spot, "spot"), nullptr, &total) == 0);
+  CHECK(total > 20000);
+  // from inside spot (its body contains the origin) in random directions
+  const Bvh spot_bvh = make_bvh(spot, "spot");
+  std::mt19937 rng(8);
+  missed = 0;
+  for (int i = 0; i < 20000; ++i) missed += !spot_bvh.intersect(Vec3f(0.0f), random_unit(rng)).hit();
+  CHECK(missed == 0);
+}
+
+TEST_CASE("degenerate triangles are never reported") {
+  // collinear, repeated vertex, all three equal, next to a proper triangle
+  std::vector<float> p{0, 0, 0, 1, 0, 0, 2, 0, 0, 0, 1, 0, 0, 0, -1, 1, 0, -1, 0, 1, -1};
+  std::vector<std::int32_t> f{0, 1, 2, 0, 0, 3, 3, 3, 3, 4, 5, 6};
+  const Bvh bvh(p.data(), 7, f.data(), 4, "flat");
+  int reported = 0;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(-0.5f, 2.5f);
+  for (int i = 0; i < 2000; ++i) {
+    // rays crossing the degenerate triangles' lines and points from every side
+    const Vec3f target = i % 3 == 0 ? Vec3f(u(rng), 0.0f, 0.0f) : (i % 3 == 1 ? Vec3f(0, 0, 0) : Vec3f(0, 1, 0));
+    const Vec3f from = target + 2.0f * random_unit(rng);
+    const auto h = bvh.intersect(from, glm::normalize(target - from));
+    reported += h.hit() && h.prim != 3;
+  }
+  CHECK(reported == 0);
+  // along the segment's own line, and the proper triangle still answers
+  CHECK_FALSE(bvh.intersect(Vec3f(-1, 0, 0), Vec3f(1, 0, 0)).hit());
+  const auto h = bvh.intersect(Vec3f(0.2f, 0.2f, 1.0f), Vec3f(0, 0, -1));
+  REQUIRE(h.hit());
+  CHECK(h.prim == 3);
+  CHECK(h.t == doctest::Approx(2.0f));
+  // a sliver whose 2D projection is not exactly flat after the shear
+  std::vector<float> q{0, 0, 0, 1, 1e-9f, 0, 2, 0, 0};
+  std::vector<std::int32_t> g{0, 1, 2};
+  const Bvh sliver(q.data(), 3, g.data(), 1, "sliver");
+  int sliver_hits = 0;
+  for (int i = 0; i < 500; ++i) {
+    const Vec3f target(u(rng) * 0.6f + 0.2f, 0.0f, 0.0f);
+    const Vec3f from = target + random_unit(rng);
+    sliver_hits += sliver.intersect(from, glm::normalize(target - from)).hit();
+  }
+  CHECK(sliver_hits == 0);
+}
+
+TEST_CASE("bad input is rejected with a message naming it") {
+  Shape c = make_box(0.5f, 0.5f, 0.5f);
+  c.positions[3 * 5 + 1] = std::numeric_limits<float>::quiet_NaN();
+  CHECK_THROWS_WITH_AS(make_bvh(c, "cube.obj"), doctest::Contains("cube.obj: vertex 5 has a non-finite coordinate"),
+                       std::invalid_argument);
+  Shape d = make_box(0.5f, 0.5f, 0.5f);
+  d.triangles[3 * 7 + 2] = 8;
+  CHECK_THROWS_WITH_AS(make_bvh(d, "cube.obj"), doctest::Contains("triangle 7 refers to vertex 8"),
+                       std::invalid_argument);
+  d.triangles[3 * 7 + 2] = -1;
+  CHECK_THROWS_WITH_AS(make_bvh(d, "cube.obj"), doctest::Contains("triangle 7 refers to vertex -1"),
+                       std::invalid_argument);
+  Shape e = make_box(0.5f, 0.5f, 0.5f);
+  Bvh bvh = make_bvh(e, "cube");
+  e.positions[0] = std::numeric_limits<float>::infinity();
+  CHECK_THROWS_WITH_AS(bvh.refit(e.positions.data()), doctest::Contains("vertex 0 has a non-finite"),
+                       std::invalid_argument);
+  CHECK_THROWS_AS(bvh.update_positions(e.positions.data()), std::invalid_argument);
+  // an empty mesh is valid and hits nothing
+  const Bvh empty(nullptr, 0, nullptr, 0, "empty");
+  CHECK_FALSE(empty.intersect(Vec3f(0, 0, 1), Vec3f(0, 0, -1)).hit());
+}
+
+TEST_CASE("tree invariants: every triangle once, boxes enclose, bounded depth") {
+  const auto check_tree = [](const Bvh& bvh, const Shape& s) {
+    const auto& nodes = bvh.nodes();
+    std::vector<int> seen(s.triangles.size() / 3, 0);
+    int leaves = 0;
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
+      const BvhNode& n = nodes[i];
+      if (n.leaf()) {
+        ++leaves;
+        CHECK(n.count <= 4);
+        for (std::int32_t k = n.index; k < n.index + n.count; ++k) {
+          ++seen[std::size_t(bvh.prims()[std::size_t(k)])];
+          for (int j = 0; j < 9; ++j) {
+            const float x = bvh.vertices()[9 * std::size_t(k) + std::size_t(j)];
+            CHECK((x >= n.lo[j % 3] && x <= n.hi[j % 3]));
+          }
+        }
+      } else {
+        REQUIRE(n.index > std::int32_t(i) + 1);
+        REQUIRE(n.index < std::int32_t(nodes.size()));
+        for (const BvhNode* c : {&nodes[i + 1], &nodes[std::size_t(n.index)]})
+          for (int k = 0; k < 3; ++k) CHECK((c->lo[k] >= n.lo[k] && c->hi[k] <= n.hi[k]));
+      }
+    }
+    CHECK(std::all_of(seen.begin(), seen.end(), [](int x) { return x == 1; }));
+    CHECK(bvh.depth() <= difftrans::accel::bvh_max_depth);
+    return leaves;
+  };
+  const Shape spot = load_normalized_mesh(std::string(DIFFTRANS_SHARED_DATA_DIR) + "/meshes/spot.obj");
+  const Bvh b = make_bvh(spot);
+  CHECK(check_tree(b, spot) >= int(spot.triangles.size() / 3 / 4));
+  CHECK(b.depth() < 30);
+  // the SAH does better than a random ray testing every triangle
+  CHECK(b.sah_cost() < 0.02 * double(spot.triangles.size() / 3));
+  // 3000 identical triangles: no split separates them, median splits bound the depth
+  Shape same;
+  same.positions = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  for (int i = 0; i < 3000; ++i) same.triangles.insert(same.triangles.end(), {0, 1, 2});
+  const Bvh sb = make_bvh(same);
+  check_tree(sb, same);
+  CHECK(sb.depth() <= 14);
+  CHECK(sb.intersect(Vec3f(0.2f, 0.2f, 1), Vec3f(0, 0, -1)).hit());
+}
+
+TEST_CASE("refit and rebuild follow moved vertices") {
+  const Shape spot = load_normalized_mesh(std::string(DIFFTRANS_SHARED_DATA_DIR) + "/meshes/spot.obj");
+  Bvh bvh = make_bvh(spot);
+  const std::unique_ptr<EmbreeScene> em(make_embree(spot));
+  // a smooth deformation: twist and stretch, so boxes must grow and shrink
+  Shape moved = spot;
+  for (std::size_t i = 0; i < moved.positions.size(); i += 3) {
+    float& x = moved.positions[i];
+    float& y = moved.positions[i + 1];
+    float& z = moved.positions[i + 2];
+    const float a = 1.2f * y, cx = std::cos(a), sx = std::sin(a);
+    const float nx = cx * x - sx * z, nz = sx * x + cx * z;
+    x = 1.3f * nx;
+    z = 0.7f * nz;
+    y = y + 0.1f * x;
+  }
+  bvh.refit(moved.positions.data());
+  em->update_positions(moved.positions.data());
+  CHECK(bvh.sah_cost() > bvh.built_sah_cost());  // the old tree fits the new shape worse
+  const auto rays = random_rays(20000, 21);
+  Agreement a = compare_with_embree(moved, bvh, *em, rays);
+  CHECK(a.hits > a.rays / 4);
+  CHECK(a.hit_miss_differ <= 2);
+  CHECK(a.bad_t == 0);
+  CHECK(a.bad_point == 0);
+  bvh.rebuild(moved.positions.data());
+  CHECK(bvh.sah_cost() == bvh.built_sah_cost());
+  a = compare_with_embree(moved, bvh, *em, rays);
+  CHECK(a.hit_miss_differ <= 2);
+  CHECK(a.bad_t == 0);
+  // update_positions: 2000 small separate triangles, each moved to another
+  // place; the refitted boxes then span everything, so it rebuilds
+  Shape soup, shuffled;
+  std::mt19937 rng(9);
+  std::vector<int> cells(2000);
+  for (int i = 0; i < 2000; ++i) cells[std::size_t(i)] = i;
+  std::shuffle(cells.begin(), cells.end(), rng);
+  for (int i = 0; i < 2000; ++i) {
+    const auto place = [](Shape& sh, int cell) {
+      const float x = float(cell % 20) / 20.0f - 0.5f, y = float(cell / 20 % 10) / 10.0f - 0.5f,
+                  z = float(cell / 200) / 10.0f - 0.5f;
+      const auto base = std::int32_t(sh.positions.size() / 3);
+      sh.positions.insert(sh.positions.end(), {x, y, z, x + 0.04f, y, z, x, y + 0.04f, z + 0.02f});
+      sh.triangles.insert(sh.triangles.end(), {base, base + 1, base + 2});
+    };
+    place(soup, i);
+    place(shuffled, cells[std::size_t(i)]);
+  }
+  Bvh up = make_bvh(soup), only_refit = make_bvh(soup);
+  up.update_positions(shuffled.positions.data());
+  only_refit.refit(shuffled.positions.data());
+  CHECK(up.sah_cost() == up.built_sah_cost());
+  CHECK(only_refit.sah_cost() > 3.0 * up.sah_cost());
+  // both answer right; the rebuilt tree does so with less work
+  const std::unique_ptr<EmbreeScene> es(make_embree(shuffled));
+  const auto soup_rays = random_rays(5000, 22);
+  const Agreement s1 = compare_with_embree(shuffled, up, *es, soup_rays);
+  const Agreement s2 = compare_with_embree(shuffled, only_refit, *es, soup_rays);
+  CHECK(s1.hits > 100);
+  CHECK(s1.hit_miss_differ + s1.bad_t + s1.bad_point == 0);
+  CHECK(s2.hit_miss_differ + s2.bad_t + s2.bad_point == 0);
+}
+
+namespace {
+difftrans::render::HostScene sphere_scene() {
+  const Shape ico = make_icosphere(0.5f, 3);
+  difftrans::render::HostScene s(ico.positions, ico.triangles, "sphere");
+  s.ior = 1.5f;
+  std::vector<float> t;
+  const int w = 32, h = 16;
+  for (int row = 0; row < h; ++row)
+    for (int col = 0; col < w; ++col) {
+      const float u = (col + 0.5f) / w, v = (row + 0.5f) / h;
+      t.insert(t.end(), {0.6f + 0.4f * std::sin(6.2831853f * u), 0.5f + 0.4f * std::cos(3.14159f * v),
+                         0.3f + 0.6f * u * v});
+    }
+  s.set_environment_map(t, w, h);
+  s.set_homogeneous_absorption(Vec3f(0.3f, 0.6f, 1.2f));
+  return s;
+}
+}  // namespace
+
+TEST_CASE("the tracer renders the same with the BVH as with Embree") {
+  using namespace difftrans;
+  const render::HostScene s = sphere_scene();
+  const Bvh bvh(s.mesh.positions.data(), s.mesh.num_vertices(), s.mesh.triangles.data(), s.mesh.num_triangles(),
+                "sphere");
+  const render::SceneView view = s.view(false);
+  const ad::ParamSet params = s.params();
+  ad::ParamReader<float> reader(&params);
+  const scene::Camera cam = scene::look_at_camera(Vec3f(0.3f, 0.4f, 1.6f), Vec3f(0.0f), Vec3f(0, 1, 0), 0.9f, 48, 48);
+  render::TraceSettings ts;
+  ts.max_depth = 6;
+  int differ = 0, hit_pixels = 0;
+  double max_diff = 0;
+  for (int y = 0; y < cam.height; ++y)
+    for (int x = 0; x < cam.width; ++x) {
+      const scene::Ray r = cam.generate_ray(x, y);
+      render::TraceStats se, sb;
+      const Vec3f le = render::trace<float>(view, s.accel(), reader, r.origin, r.direction, ts, &se);
+      const Vec3f lb = render::trace<float>(view, bvh, reader, r.origin, r.direction, ts, &sb);
+      hit_pixels += se.hits > 0;
+      const float d = glm::length(le - lb);
+      max_diff = std::max(max_diff, double(d));
+      differ += !(d <= 1e-4f) || se.hits != sb.hits;
+    }
+  std::printf("tracer with BVH vs Embree: %d of %d pixels hit the sphere, %d differ, max |diff| %.3g\n", hit_pixels,
+              cam.width * cam.height, differ, max_diff);
+  CHECK(hit_pixels > cam.width * cam.height / 5);
+  CHECK(differ == 0);
+}
+
+TEST_CASE("the device pixel kernels, run on the host, match the host passes") {
+  // cuda/render_kernels.hpp compiled by the host compiler and run in a loop:
+  // the same code the CUDA launches run, against render_image,
+  // render_derivative and render_gradient (which use Embree)
+  using namespace difftrans;
+  render::HostScene s = sphere_scene();
+  std::vector<float> raw(3 * 3 * 3 * 3);
+  for (std::size_t i = 0; i < raw.size(); ++i) raw[i] = scene::raw_from_sigma(0.2f + 0.15f * float(i % 5));
+  s.set_grid_absorption(Vec3i(3, 3, 3), Vec3f(-0.55f), Vec3f(0.55f), raw);
+  const Bvh bvh(s.mesh.positions.data(), s.mesh.num_vertices(), s.mesh.triangles.data(), s.mesh.num_triangles(),
+                "sphere");
+  const scene::Camera cam = scene::look_at_camera(Vec3f(0.2f, -0.3f, 1.5f), Vec3f(0.0f), Vec3f(0, 1, 0), 0.8f, 24, 20);
+  render::PassOptions opt;
+  opt.trace.max_depth = 5;
+  opt.samples_per_axis = 2;
+  const int pixels = cam.width * cam.height;
+  const std::size_t n = std::size_t(pixels) * 3;
+  std::uint32_t counters[cuda::counter_count] = {0, 0, 0, 0};
+  const auto make_job = [&](bool ad, const ad::ParamSet* params, bool reverse = false) {
+    cuda::PixelJob job;
+    job.scene = s.view(ad, reverse);
+    job.bvh = bvh.view();
+    job.camera = cam;
+    job.trace = opt.trace;
+    job.params = params;
+    job.samples_per_axis = opt.samples_per_axis;
+    job.counters = counters;
+    return job;
+  };
+  const auto max_abs_diff = [](const std::vector<float>& a, const std::vector<float>& b) {
+    double m = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) m = std::max(m, std::abs(double(a[i]) - double(b[i])));
+    return m;
+  };
+
+  // float
+  const ad::ParamSet values = s.params();
+  std::vector<float> image(n, -1.0f);
+  cuda::PixelJob job = make_job(false, &values);
+  job.image = image.data();
+  const cuda::RenderPixel<float> render_pixel{job};
+  for (int p = 0; p < pixels; ++p) render_pixel(p);
+  render::PassStats st;
+  const std::vector<float> reference = render::render_image(s, cam, opt, &st);
+  CHECK(max_abs_diff(image, reference) <= 1e-5);
+  CHECK(counters[cuda::counter_segments] == std::uint32_t(st.trace.segments));
+  CHECK(counters[cuda::counter_hits] == std::uint32_t(st.trace.hits));
+  CHECK(st.trace.hits > pixels);  // the sphere fills a good part of the view
+
+  // Dual<float, 1> along the IoR and the absorption
+  std::vector<float> dir_abs(raw.size());
+  for (std::size_t i = 0; i < dir_abs.size(); ++i) dir_abs[i] = float(i % 3) - 0.7f;
+  const float one = 1.0f;
+  const float* direction[render::param_count] = {nullptr, &one, dir_abs.data(), nullptr};
+  ad::ParamSet tangents = s.params();
+  for (int b = 0; b < render::param_count; ++b) tangents.buffers[b].tangents[0] = direction[b];
+  std::vector<float> value(n), derivative(n);
+  job = make_job(true, &tangents);
+  job.image = value.data();
+  job.derivative = derivative.data();
+  const cuda::RenderPixel<ad::Dual<float, 1>> dual_pixel{job};
+  for (int p = 0; p < pixels; ++p) dual_pixel(p);
+  const render::ImageDerivative ref_d = render::render_derivative(s, cam, direction, opt);
+  CHECK(max_abs_diff(value, ref_d.value) <= 1e-5);
+  CHECK(max_abs_diff(derivative, ref_d.derivative) <= 1e-4);
+  CHECK(std::any_of(derivative.begin(), derivative.end(), [](float x) { return std::abs(x) > 1e-2f; }));
+
+  // Var<float>: tapes in the kernel's own arrays (GradientPixel) and cut
+  // from a pool in waves of 7 threads (PooledGradientPixel)
+  std::vector<float> adjoint(n);
+  for (std::size_t i = 0; i < n; ++i) adjoint[i] = 0.5f + 0.5f * std::sin(0.37f * float(i));
+  render::SceneGradient ref_g(s);
+  render::PassStats gst;
+  render::render_gradient(s, cam, adjoint.data(), ref_g, opt, &gst);
+  const auto rel = [](const std::vector<float>& a, const std::vector<float>& b) {
+    double num = 0, den = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      num += (double(a[i]) - b[i]) * (double(a[i]) - b[i]);
+      den += double(b[i]) * b[i];
+    }
+    return std::sqrt(num / std::max(den, 1e-30));
+  };
+  for (int pooled = 0; pooled < 2; ++pooled) {
+    CAPTURE(pooled);
+    render::SceneGradient g(s);
+    ad::ParamSet grads = s.params();
+    g.attach(grads);
+    std::vector<float> gimage(n);
+    std::fill(counters, counters + cuda::counter_count, 0u);
+    job = make_job(true, &grads, true);
+    job.image = gimage.data();
+    job.pixel_adjoint = adjoint.data();
+    if (pooled) {
+      const int slots = 7, cap = 1 << 14, log_cap = 1 << 11;
+      std::vector<ad::Node<float>> nodes(std::size_t(slots * cap));
+      std::vector<float> adjoints(std::size_t(slots * cap));
+      std::vector<ad::LeafRecord> logs(std::size_t(slots * log_cap));
+      cuda::PooledGradientPixel k{job, cuda::TapePool{nodes.data(), adjoints.data(), logs.data(), cap, log_cap}, 0,
+                                  pixels};
+      for (int first = 0; first < pixels; first += slots) {
+        k.first_pixel = first;
+        for (int slot = 0; slot < slots; ++slot) k(slot);
+      }
+    } else {
+      const auto local = std::make_unique<cuda::GradientPixel<1 << 14, 1 << 11>>(cuda::GradientPixel<1 << 14, 1 << 11>{job});
+      for (int p = 0; p < pixels; ++p) (*local)(p);
+    }
+    g.fold_normals(s);  // two-level normals, as the passes do after their sweep
+    CHECK(counters[cuda::counter_overflow] == 0);
+    CHECK(counters[cuda::counter_max_tape] == std::uint32_t(gst.max_tape_nodes));
+    CHECK(max_abs_diff(gimage, reference) <= 1e-5);
+    CHECK(std::abs(g.ior[0] - ref_g.ior[0]) <= 1e-4 * std::abs(ref_g.ior[0]));
+    CHECK(rel(g.positions, ref_g.positions) <= 1e-4);
+    CHECK(rel(g.absorption, ref_g.absorption) <= 1e-4);
+    CHECK(rel(g.environment, ref_g.environment) <= 1e-4);
+    // the IoR gradient agrees with the Dual derivative along the IoR alone
+    const float* ior_only[render::param_count] = {nullptr, &one, nullptr, nullptr};
+    const render::ImageDerivative d_ior = render::render_derivative(s, cam, ior_only, opt);
+    double dot = 0;
+    for (std::size_t i = 0; i < n; ++i) dot += double(adjoint[i]) * d_ior.derivative[i];
+    CHECK(std::abs(dot) > 1e-2);
+    CHECK(g.ior[0] == doctest::Approx(dot).epsilon(1e-3));
+  }
+  std::printf("gradient kernel: largest tape %d nodes\n", gst.max_tape_nodes);
+  {
+    // a homogeneous-absorption sphere at depth 4 records few nodes per ray
+    render::HostScene h = sphere_scene();
+    render::SceneGradient hg(h);
+    render::PassOptions ho;
+    ho.trace.max_depth = 4;
+    render::PassStats hs;
+    render::render_gradient(h, cam, adjoint.data(), hg, ho, &hs);
+    CHECK(hs.max_tape_nodes < 4096);  // tests/cuda/render.test.cu runs this case with GradientPixel<4096>
+  }
+
+  // a tape too small: every ray that needs more is dropped and counted
+  std::fill(counters, counters + cuda::counter_count, 0u);
+  render::SceneGradient small(s);
+  ad::ParamSet small_set = s.params();
+  small.attach(small_set);
+  job = make_job(true, &small_set, true);
+  job.image = nullptr;
+  job.pixel_adjoint = adjoint.data();
+  const cuda::GradientPixel<64, 16> tiny{job};
+  for (int p = 0; p < pixels; ++p) tiny(p);
+  CHECK(counters[cuda::counter_overflow] > 0);
+}
