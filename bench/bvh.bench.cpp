@@ -15,6 +15,7 @@
 
 #include "../tests/support/shapes.hpp"
 #include "difftrans/accel/bvh.hpp"
+#include "difftrans/accel/embree.hpp"
 #include "support/ratio_reporter.hpp"
 
 namespace {

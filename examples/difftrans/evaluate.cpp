@@ -8,6 +8,7 @@
 #include <memory>
 
 #include "command.hpp"
+#include "difftrans/io/dataset.hpp"
 #include "difftrans/io/image_file.hpp"
 #include "difftrans/io/mesh_file.hpp"
 #include "difftrans/metrics/metrics.hpp"
@@ -20,6 +21,7 @@ namespace fs = std::filesystem;
 struct EvaluateOptions {
   std::string pred, gt;
   std::string pred_images, gt_images, masks;
+  std::string scene, split = "test";
   std::size_t samples = metrics::GeometryOptions{}.samples;
   std::uint64_t seed = metrics::GeometryOptions{}.seed;
   double tau = metrics::GeometryOptions{}.tau;
@@ -67,10 +69,33 @@ void evaluate_geometry(const EvaluateOptions& o, io::Json& result) {
   result["mesh_warnings"] = warnings;
 }
 
+// Ground truth from a scene directory's split: images and masks by frame name.
+struct SceneTruth {
+  std::map<std::string, fs::path> images, masks;
+};
+
+SceneTruth scene_truth(const EvaluateOptions& o) {
+  io::LoadOptions lo;
+  lo.read_pixels = false;
+  const io::Scene scene = io::load_scene(o.scene, lo);
+  for (const auto& w : scene.warnings) warn(w);
+  const io::Split& split = o.split == "train" ? scene.train : scene.test;
+  if (split.frames.empty()) throw io::Error(o.scene, "the scene has no " + o.split + " views");
+  SceneTruth t;
+  for (const auto& f : split.frames) {
+    if (f.environment_only) continue;
+    t.images[f.name] = f.image_path;
+    if (!f.mask_path.empty()) t.masks[f.name] = f.mask_path;
+  }
+  return t;
+}
+
 void evaluate_images(const EvaluateOptions& o, io::Json& result) {
-  const auto gt = images_in(o.gt_images);
+  const bool from_scene = !o.scene.empty();
+  const SceneTruth truth = from_scene ? scene_truth(o) : SceneTruth{};
+  const auto gt = from_scene ? truth.images : images_in(o.gt_images);
   const auto pred = images_in(o.pred_images);
-  if (gt.empty()) throw io::Error(o.gt_images, "no images (.exr, .hdr, .png, .jpg) in this directory");
+  if (gt.empty()) throw io::Error(from_scene ? o.scene : o.gt_images, "no images (.exr, .hdr, .png, .jpg) in this directory");
   io::Json per_image = io::Json::array();
   double sum_psnr = 0.0, sum_mask = 0.0, sum_ssim = 0.0;
   std::size_t n = 0, n_mask = 0;
@@ -84,8 +109,9 @@ void evaluate_images(const EvaluateOptions& o, io::Json& result) {
                                      " but the ground truth " + gt_path.string() + " is " + std::to_string(b.width) +
                                      " x " + std::to_string(b.height));
     std::unique_ptr<io::Mask> mask;
-    if (!o.masks.empty()) {
-      const fs::path mask_path = fs::path(o.masks) / (name + ".png");
+    const bool scene_mask = from_scene && truth.masks.count(name);
+    if (!o.masks.empty() || scene_mask) {
+      const fs::path mask_path = scene_mask ? truth.masks.at(name) : fs::path(o.masks) / (name + ".png");
       mask = std::make_unique<io::Mask>(io::read_mask(mask_path));
       if (mask->width != b.width || mask->height != b.height)
         throw io::Error(mask_path, "mask is " + std::to_string(mask->width) + " x " + std::to_string(mask->height) +
@@ -109,17 +135,19 @@ void evaluate_images(const EvaluateOptions& o, io::Json& result) {
   // Means of the per-image values; an infinite PSNR (identical images) makes the mean infinite (null).
   result["psnr"] = sum_psnr / double(n);
   result["ssim"] = sum_ssim / double(n);
-  if (!o.masks.empty()) result["psnr_mask"] = n_mask ? sum_mask / double(n_mask) : std::nan("");
+  if (!o.masks.empty() || !truth.masks.empty()) result["psnr_mask"] = n_mask ? sum_mask / double(n_mask) : std::nan("");
   result["count"] = n;
   result["images"] = per_image;
 }
 
 void run(const EvaluateOptions& o) {
   const bool geometry = !o.pred.empty() || !o.gt.empty();
-  const bool images = !o.pred_images.empty() || !o.gt_images.empty();
+  const bool images = !o.pred_images.empty() || !o.gt_images.empty() || !o.scene.empty();
+  if (!o.scene.empty() && !o.gt_images.empty()) throw CLI::ValidationError("--scene and --gt-images exclude each other");
+  if (!o.scene.empty() && o.pred_images.empty()) throw CLI::ValidationError("--scene needs --pred-images");
   const bool ior = o.pred_ior || o.gt_ior;
   if (geometry && (o.pred.empty() || o.gt.empty())) throw CLI::ValidationError("--pred and --gt go together");
-  if (images && (o.pred_images.empty() || o.gt_images.empty()))
+  if (images && o.scene.empty() && (o.pred_images.empty() || o.gt_images.empty()))
     throw CLI::ValidationError("--pred-images and --gt-images go together");
   if (!o.masks.empty() && !images) throw CLI::ValidationError("--masks needs --pred-images and --gt-images");
   if (ior && !(o.pred_ior && o.gt_ior)) throw CLI::ValidationError("--pred-ior and --gt-ior go together");
@@ -142,6 +170,8 @@ void add_evaluate(CLI::App& app) {
       "  both meshes normalized with the ground truth's unit box; chamfer = mean d^2 both ways, f1 at --tau.\n"
       "Images:   difftrans evaluate --pred-images DIR --gt-images DIR [--masks DIR]\n"
       "  images paired by name (any of .exr .hdr .png), tone-mapped to 8 bits; masks are DIR/NAME.png.\n"
+      "Images of a scene: difftrans evaluate --pred-images OUT/images --scene SCENE_DIR [--split test]\n"
+      "  ground truth and masks from the scene's transforms_test.json (or _train), paired by frame name.\n"
       "Infinite values (identical images) are written as null.");
   cmd->add_option("--pred", o->pred, "predicted mesh (.obj or .ply)");
   cmd->add_option("--gt", o->gt, "ground-truth mesh (.obj or .ply)");
@@ -151,6 +181,8 @@ void add_evaluate(CLI::App& app) {
   cmd->add_option("--pred-images", o->pred_images, "folder of predicted images");
   cmd->add_option("--gt-images", o->gt_images, "folder of ground-truth images");
   cmd->add_option("--masks", o->masks, "folder of object masks NAME.png (adds psnr_mask)");
+  cmd->add_option("--scene", o->scene, "instead of --gt-images: a scene directory's images and masks (by frame name)");
+  cmd->add_option("--split", o->split, "--scene's views")->capture_default_str()->check(CLI::IsMember({"train", "test"}));
   cmd->add_option("--pred-ior", o->pred_ior, "predicted index of refraction (adds ior_error)");
   cmd->add_option("--gt-ior", o->gt_ior, "true index of refraction");
   cmd->add_option("--out", o->out, "also write the JSON to this file");

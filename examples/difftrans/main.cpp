@@ -6,6 +6,9 @@
 #include <exception>
 
 #define DIFFTRANS_COMMANDS(X) \
+  X(synth)                    \
+  X(render)                   \
+  X(relight)                  \
   X(evaluate)                 \
   X(info)
 

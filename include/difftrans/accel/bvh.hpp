@@ -13,19 +13,14 @@
 #include <utility>
 #include <vector>
 
-#include "difftrans/accel/embree.hpp"  // RayHit (the struct both intersectors answer with)
+#include "difftrans/accel/ray_hit.hpp"
 #include "difftrans/core/platform.hpp"
 #include "difftrans/core/vec.hpp"
 
 namespace difftrans::accel {
 
-// The BVH's answer: accel::RayHit (prim, t, u, v with point = (1 − u − v) p0
-// + u p1 + v p2), with hit() callable on the device as well. RayHit::hit()
-// in embree.hpp is host-only; this derived struct hides it, and slices to a
-// plain RayHit wherever one is expected.
-struct BvhHit : RayHit {
-  DT_HOST_DEVICE bool hit() const { return prim >= 0; }
-};
+// The BVH answers with accel::RayHit (accel/ray_hit.hpp), like Embree.
+using BvhHit = RayHit;
 
 // One node, 32 bytes, depth-first: an inner node's first child directly
 // follows it, its second child is at `index`. A leaf holds triangles

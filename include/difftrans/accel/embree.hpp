@@ -14,18 +14,10 @@
 #include <string>
 #include <vector>
 
+#include "difftrans/accel/ray_hit.hpp"
 #include "difftrans/core/vec.hpp"
 
 namespace difftrans::accel {
-
-// What the intersector reports: the triangle, distance and Embree's
-// barycentrics (point = (1 − u − v) p0 + u p1 + v p2).
-struct RayHit {
-  std::int32_t prim = -1;
-  float t = std::numeric_limits<float>::infinity();
-  float u = 0, v = 0;
-  bool hit() const { return prim >= 0; }
-};
 
 class EmbreeScene {
  public:

@@ -1,6 +1,9 @@
-// Everything of the render layer on the host: tracer, host scene, passes.
+// Everything of the render layer on the host: tracer, host scene, passes,
+// silhouettes, whole views.
 #pragma once
 
 #include "difftrans/render/host_scene.hpp"
 #include "difftrans/render/passes.hpp"
+#include "difftrans/render/silhouette.hpp"
 #include "difftrans/render/tracer.hpp"
+#include "difftrans/render/views.hpp"

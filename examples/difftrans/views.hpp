@@ -1,0 +1,374 @@
+// Shared pieces of synth, render and relight: option parsing (colours,
+// environments, materials), rendering a list of views to files with progress,
+// comparing renders with ground truth (metrics JSON, contact sheet), and
+// writing an output folder so that a failure leaves nothing half-written.
+#pragma once
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <optional>
+#include <sstream>
+
+#include "command.hpp"
+#include "difftrans/io/contact_sheet.hpp"
+#include "difftrans/io/dataset.hpp"
+#include "difftrans/io/image_file.hpp"
+#include "difftrans/io/material.hpp"
+#include "difftrans/io/mesh_file.hpp"
+#include "difftrans/metrics/image.hpp"
+#include "difftrans/render/views.hpp"
+
+#ifndef DIFFTRANS_DEFAULT_DATA_DIR
+#define DIFFTRANS_DEFAULT_DATA_DIR "../shared/data"
+#endif
+
+namespace difftrans::cli {
+
+namespace fs = std::filesystem;
+
+// Linear images are written as OpenEXR (32-bit float, lossless); PNG previews
+// are tone-mapped per PROTOCOL.md.
+inline constexpr const char* linear_extension = ".exr";
+
+// The shared data folder (meshes/, envmaps/): --data, else $DIFFTRANS_DATA,
+// else the ../shared/data next to the source tree this command was built from.
+inline fs::path data_dir(const std::string& option) {
+  if (!option.empty()) return option;
+  if (const char* env = std::getenv("DIFFTRANS_DATA"); env && *env) return env;
+  return DIFFTRANS_DEFAULT_DATA_DIR;
+}
+
+// "R,G,B" (three finite numbers) or throws CLI::ValidationError naming the option.
+inline Vec3f parse_rgb(const std::string& text, const std::string& option, bool non_negative = true) {
+  std::stringstream ss(text);
+  std::string part;
+  std::vector<double> v;
+  while (std::getline(ss, part, ',')) {
+    char* end = nullptr;
+    const double x = std::strtod(part.c_str(), &end);
+    if (part.empty() || end == part.c_str() || *end != '\0' || !std::isfinite(x))
+      throw CLI::ValidationError(option, "'" + text + "' is not three numbers R,G,B");
+    v.push_back(x);
+  }
+  if (v.size() != 3) throw CLI::ValidationError(option, "'" + text + "' is not three numbers R,G,B");
+  if (non_negative && (v[0] < 0 || v[1] < 0 || v[2] < 0))
+    throw CLI::ValidationError(option, "'" + text + "' has a negative value");
+  return Vec3f(float(v[0]), float(v[1]), float(v[2]));
+}
+
+// --env: an equirectangular map (.hdr, .exr or .png, +Y up) or constant:R,G,B.
+struct Environment {
+  std::string spec;       // as given
+  fs::path file;          // empty for a constant
+  Vec3f constant{1.0f};
+  io::Image map;          // the loaded map (empty for a constant)
+  std::string name() const { return file.empty() ? "constant" : file.stem().string(); }
+};
+
+inline Environment load_environment(const std::string& spec) {
+  Environment e;
+  e.spec = spec;
+  const std::string prefix = "constant:";
+  if (spec.compare(0, prefix.size(), prefix) == 0) {
+    e.constant = parse_rgb(spec.substr(prefix.size()), "--env");
+    return e;
+  }
+  e.file = spec;
+  e.map = io::read_image(e.file);
+  if (e.map.width < 2 || e.map.height < 1) throw io::Error(e.file, "environment map is too small");
+  return e;
+}
+
+inline void apply_environment(render::HostScene& s, const Environment& e) {
+  if (e.file.empty()) s.set_constant_environment(e.constant);
+  else render::set_environment(s, e.map);
+}
+
+// The environment as an image for gt/: the map itself, or a small constant one.
+inline io::Image environment_image(const Environment& e) {
+  if (!e.file.empty()) return e.map;
+  io::Image im(16, 8);
+  for (int y = 0; y < 8; ++y)
+    for (int x = 0; x < 16; ++x) im.set(x, y, e.constant);
+  return im;
+}
+
+// Material options shared by render and relight: --material FILE, or --ior
+// with --absorption R,G,B or --absorption-grid FILE.
+struct MaterialOptions {
+  std::string material_file;
+  std::optional<double> ior;
+  std::string absorption;
+  std::string absorption_grid;
+
+  void add(CLI::App* cmd) {
+    cmd->add_option("--material", material_file, "material.json (ior and absorption), e.g. SCENE/gt/material.json");
+    cmd->add_option("--ior", ior, "index of refraction (overrides --material's)")->check(CLI::Range(1.0, 4.0));
+    cmd->add_option("--absorption", absorption, "homogeneous absorption sigma_a R,G,B per unit length");
+    cmd->add_option("--absorption-grid", absorption_grid, "absorption grid file (format in README: scene directories)");
+  }
+
+  io::Material resolve() const {
+    if (!absorption.empty() && !absorption_grid.empty())
+      throw CLI::ValidationError("--absorption and --absorption-grid exclude each other");
+    if (material_file.empty() && !ior) throw CLI::ValidationError("give --ior or --material");
+    io::Material m = material_file.empty() ? io::Material{} : io::read_material(material_file);
+    if (ior) m.ior = *ior;
+    if (!absorption.empty()) {
+      m.absorption = io::AbsorptionType::homogeneous;
+      m.sigma = parse_rgb(absorption, "--absorption");
+    }
+    if (!absorption_grid.empty()) {
+      m.absorption = io::AbsorptionType::grid;
+      m.grid = io::read_absorption_grid(absorption_grid);
+      m.grid_file = fs::path(absorption_grid).filename().string();
+    }
+    return m;
+  }
+};
+
+// Reads a mesh, printing its warnings.
+inline io::Mesh load_mesh(const fs::path& path) {
+  std::vector<std::string> warnings;
+  io::Mesh mesh = io::read_mesh(path, &warnings);
+  for (const auto& w : warnings) warn(w);
+  if (mesh.triangles.empty()) throw io::Error(path, "mesh has no triangles");
+  return mesh;
+}
+
+// One view to render: its name, camera, the frame it came from (for
+// transforms JSON) and, when known, its ground-truth image and mask.
+struct View {
+  std::string name;
+  scene::Camera camera;
+  io::Frame frame;  // intrinsics and camera_to_world; paths empty
+  fs::path truth_image, truth_mask;
+};
+
+inline View view_from_frame(const io::Frame& f) {
+  View v;
+  v.name = f.name;
+  const auto& k = f.intrinsics;
+  v.camera = render::camera_from(f.camera_to_world, k.fx, k.fy, k.cx, k.cy, k.width, k.height);
+  v.frame = f;
+  v.frame.image = {};
+  v.frame.mask = {};
+  v.truth_image = f.image_path;
+  v.truth_mask = f.mask_path;
+  return v;
+}
+
+// A protocol view (PROTOCOL.md camera) in direction `dir`; the camera is built
+// from the frame, exactly as a reader of the transforms JSON will build it.
+inline View protocol_view(const std::string& name, const Vec3f& dir, int width, int height) {
+  const scene::Camera c = scene::protocol_camera(dir, width, height);
+  io::Frame f;
+  f.name = name;
+  f.intrinsics = io::Intrinsics::from_fov_y(width, height, double(scene::protocol_camera_fov_y));
+  f.camera_to_world = Mat4<double>(c.camera_to_world);
+  View v;
+  v.name = name;
+  v.camera = render::camera_from(f.camera_to_world, f.intrinsics.fx, f.intrinsics.fy, f.intrinsics.cx,
+                                 f.intrinsics.cy, width, height);
+  v.frame = f;
+  return v;
+}
+
+// Seconds as "12.3 s" or "4 min 05 s".
+inline std::string duration_text(double s) {
+  char b[64];
+  if (s < 100.0) std::snprintf(b, sizeof(b), "%.1f s", s);
+  else std::snprintf(b, sizeof(b), "%d min %02d s", int(s) / 60, int(s) % 60);
+  return b;
+}
+
+// Progress of n items on stderr: "LABEL: 12/70 NAME, 3.2 s elapsed, ~15.1 s left".
+class Progress {
+ public:
+  Progress(std::string label, std::size_t total) : label_(std::move(label)), total_(total), start_(clock::now()) {}
+  void done(std::size_t count, const std::string& what) const {
+    const double t = elapsed();
+    std::string line = label_ + ": " + std::to_string(count) + "/" + std::to_string(total_) + " " + what + ", " +
+                       duration_text(t) + " elapsed";
+    if (count < total_ && count > 0) line += ", ~" + duration_text(t / double(count) * double(total_ - count)) + " left";
+    progress(line);
+  }
+  double elapsed() const { return std::chrono::duration<double>(clock::now() - start_).count(); }
+
+ private:
+  using clock = std::chrono::steady_clock;
+  std::string label_;
+  std::size_t total_;
+  clock::time_point start_;
+};
+
+// What was rendered for one view.
+struct Rendered {
+  View view;
+  io::Image image;
+  io::Mask mask;
+};
+
+// Renders every view; writes DIR/images/NAME.exr, DIR/previews/NAME.png and
+// (write_masks) DIR/masks/NAME.png, filling each view's frame paths.
+inline std::vector<Rendered> render_views(const render::HostScene& s, std::vector<View> views,
+                                          const render::PassOptions& options, const fs::path& dir, bool write_masks,
+                                          const std::string& label) {
+  fs::create_directories(dir / "images");
+  fs::create_directories(dir / "previews");
+  if (write_masks) fs::create_directories(dir / "masks");
+  Progress bar(label, views.size());
+  std::vector<Rendered> out;
+  out.reserve(views.size());
+  std::int64_t rays = 0, segments = 0;
+  for (std::size_t i = 0; i < views.size(); ++i) {
+    Rendered r;
+    r.view = std::move(views[i]);
+    render::PassStats st;
+    r.image = render::render_view(s, r.view.camera, options, &st);
+    rays += st.rays;
+    segments += st.trace.segments;
+    r.mask = render::object_mask(s, r.view.camera);
+    r.view.frame.image_path = dir / "images" / (r.view.name + linear_extension);
+    io::write_image(r.view.frame.image_path, r.image);
+    io::write_png(dir / "previews" / (r.view.name + ".png"), r.image);
+    if (write_masks) {
+      r.view.frame.mask_path = dir / "masks" / (r.view.name + ".png");
+      io::write_mask(r.view.frame.mask_path, r.mask);
+    }
+    r.view.frame.name = r.view.name;
+    bar.done(i + 1, r.view.name);
+    out.push_back(std::move(r));
+  }
+  if (rays > 0)
+    progress(label + ": " + std::to_string(rays) + " camera rays, " + std::to_string(segments) + " ray segments (" +
+             std::to_string(double(segments) / double(rays)).substr(0, 5) + " per camera ray) in " +
+             duration_text(bar.elapsed()));
+  return out;
+}
+
+inline io::Split split_of(const std::vector<Rendered>& rendered) {
+  io::Split s;
+  for (const auto& r : rendered) s.frames.push_back(r.view.frame);
+  return s;
+}
+
+// Metrics of renders against ground-truth images (the views' truth_image and
+// truth_mask, or `truth` renders when given, in the same order), and a contact
+// sheet of up to `sheet_rows` views. Returns the JSON (the keys of difftrans
+// evaluate); writes DIR/metrics.json and DIR/contact_sheet.png.
+inline io::Json compare_with_truth(const std::vector<Rendered>& renders, const std::vector<Rendered>* truth,
+                                   const fs::path& dir, int sheet_rows = 4) {
+  io::Json per = io::Json::array();
+  double sum_psnr = 0, sum_mask = 0, sum_ssim = 0;
+  std::size_t n = 0, n_mask = 0;
+  std::vector<io::Image> truth_images;
+  for (std::size_t i = 0; i < renders.size(); ++i) {
+    const Rendered& r = renders[i];
+    io::Image gt;
+    io::Mask mask;
+    bool has_mask = false;
+    if (truth) {
+      gt = (*truth)[i].image;
+      mask = (*truth)[i].mask;
+      has_mask = true;
+    } else {
+      gt = io::read_image(r.view.truth_image);
+      if (gt.width != r.image.width || gt.height != r.image.height)
+        throw io::Error(r.view.truth_image, "image is " + std::to_string(gt.width) + " x " + std::to_string(gt.height) +
+                                                " but its camera renders " + std::to_string(r.image.width) + " x " +
+                                                std::to_string(r.image.height));
+      if (!r.view.truth_mask.empty()) {
+        mask = io::read_mask(r.view.truth_mask);
+        has_mask = mask.width == gt.width && mask.height == gt.height;
+        if (!has_mask) warn(r.view.truth_mask.string() + ": mask size differs from its image; psnr_mask left out");
+      }
+    }
+    const auto m = metrics::evaluate_image(r.image, gt, has_mask ? &mask : nullptr);
+    io::Json e = {{"name", r.view.name}, {"psnr", m.psnr}, {"ssim", m.ssim}};
+    if (has_mask && !std::isnan(m.psnr_mask)) {
+      e["psnr_mask"] = m.psnr_mask;
+      sum_mask += m.psnr_mask;
+      ++n_mask;
+    }
+    per.push_back(e);
+    sum_psnr += m.psnr;
+    sum_ssim += m.ssim;
+    ++n;
+    truth_images.push_back(std::move(gt));
+  }
+  io::Json result = io::Json::object();
+  result["psnr"] = n ? sum_psnr / double(n) : std::nan("");
+  result["psnr_mask"] = n_mask ? sum_mask / double(n_mask) : std::nan("");
+  result["ssim"] = n ? sum_ssim / double(n) : std::nan("");
+  result["count"] = n;
+  result["images"] = per;
+  if (n > 0) {
+    std::vector<io::SheetRow> rows;
+    for (int i : io::spread_indices(int(n), sheet_rows)) rows.push_back({&truth_images[size_t(i)], &renders[size_t(i)].image});
+    io::write_png8(dir / "contact_sheet.png", io::comparison_sheet(rows));
+    result["contact_sheet"] = "contact_sheet.png";  // relative to the output folder
+  }
+  io::write_json(dir / "metrics.json", result);
+  return result;
+}
+
+// An output folder written in full or not at all: everything goes to
+// OUT.partial, which replaces OUT only at commit(). An existing, non-empty OUT
+// is refused unless `overwrite`; on failure OUT is untouched.
+class OutputDir {
+ public:
+  // `inputs`: files and folders the command reads, which must not lie inside
+  // OUT (replacing OUT would delete them); the working directory neither.
+  OutputDir(fs::path out, bool overwrite, const std::vector<fs::path>& inputs = {}) : final_(std::move(out)) {
+    if (final_.empty()) throw CLI::ValidationError("--out", "is empty");
+    std::error_code ec;
+    if (fs::exists(final_, ec)) {
+      if (!fs::is_directory(final_, ec)) throw io::Error(final_, "exists and is not a directory");
+      if (!fs::is_empty(final_, ec) && !overwrite)
+        throw io::Error(final_, "exists and is not empty (pass --overwrite to replace it)");
+      const fs::path root = fs::weakly_canonical(final_, ec);
+      std::vector<fs::path> guarded = inputs;
+      guarded.push_back(fs::current_path(ec));
+      for (const auto& in : guarded) {
+        if (in.empty()) continue;
+        const fs::path p = fs::weakly_canonical(in, ec);
+        const auto rel = p.lexically_relative(root);
+        if (!rel.empty() && *rel.begin() != "..")
+          throw io::Error(final_, "refusing to replace this folder: it contains " + in.string());
+      }
+    }
+    staging_ = final_;
+    staging_ += ".partial";
+    fs::remove_all(staging_, ec);
+    fs::create_directories(staging_, ec);
+    if (ec) throw io::Error(staging_, "cannot create directory: " + ec.message());
+  }
+  ~OutputDir() {
+    if (!committed_) {
+      std::error_code ec;
+      fs::remove_all(staging_, ec);
+    }
+  }
+  OutputDir(const OutputDir&) = delete;
+  OutputDir& operator=(const OutputDir&) = delete;
+
+  const fs::path& path() const { return staging_; }
+  const fs::path& final_path() const { return final_; }
+
+  void commit() {
+    std::error_code ec;
+    fs::remove_all(final_, ec);
+    fs::rename(staging_, final_, ec);
+    if (ec) throw io::Error(final_, "cannot move " + staging_.string() + " into place: " + ec.message());
+    committed_ = true;
+  }
+
+ private:
+  fs::path final_, staging_;
+  bool committed_ = false;
+};
+
+}  // namespace difftrans::cli
