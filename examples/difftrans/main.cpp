@@ -9,6 +9,7 @@
   X(synth)                    \
   X(render)                   \
   X(relight)                  \
+  X(reconstruct)              \
   X(evaluate)                 \
   X(info)
 

@@ -38,6 +38,7 @@ struct EnvFit {
   std::vector<float> texels;  // width · height · 3, the EnvMap layout
   int width = 0, height = 0;
   std::int64_t observations = 0;
+  std::vector<std::uint8_t> seen;  // per texel: 1 where observations touch it
   double seen_fraction = 0;   // fraction of the sphere's solid angle covered by texels that data touches
   double rms_residual = 0;    // over the observations, linear radiance
 };
@@ -130,10 +131,12 @@ inline EnvFit fit_environment(const std::vector<EnvObservation>& obs, const EnvF
   // coverage: solid angle of the texels the data touches (a texel row at
   // polar angle θ spans sin θ of it)
   double seen = 0, total = 0;
+  fit.seen.assign(std::size_t(n), 0);
   for (std::int32_t t = 0; t < n; ++t) {
     const double theta = 3.14159265358979323846 * ((t / W) + 0.5) / H, a = std::sin(theta);
     total += a;
-    if (data_weight[std::size_t(t)] > 1e-6) seen += a;
+    fit.seen[std::size_t(t)] = data_weight[std::size_t(t)] > 1e-6;
+    if (fit.seen[std::size_t(t)]) seen += a;
   }
   fit.seen_fraction = seen / total;
   // residual over the observations
