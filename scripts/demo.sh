@@ -39,8 +39,13 @@ step "evaluate: the relit images against the scene's test images"
 "$dt" evaluate --pred-images "$out/relight/images" --scene "$out/scene" --out "$out/relight/evaluate.json" |
   grep -E '^  "(psnr|psnr_mask|ssim|count)"'
 
+step "reconstruct: the environment from the out-of-mask pixels (distant map, least squares)"
+"$dt" reconstruct "$out/scene" --out "$out/reconstruct" --stages environment |
+  grep -E '"(psnr_background_test|psnr_map_seen|seen_fraction|fit_seconds)"'
+
 echo
 echo "demo: done in $(( $(date +%s) - start )) s. Pictures:"
+echo "  environment        $out/reconstruct/envmap.hdr, $out/reconstruct/environment_comparison.png"
 echo "  scene previews     $out/scene/previews/*.png (masks in $out/scene/masks/)"
 echo "  relit previews     $out/relight/previews/*.png"
 echo "  contact sheet      $out/relight/contact_sheet.png (training-environment image | relit | error)"
