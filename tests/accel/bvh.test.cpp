@@ -420,15 +420,7 @@ difftrans::render::HostScene sphere_scene() {
   const Shape ico = make_icosphere(0.5f, 3);
   difftrans::render::HostScene s(ico.positions, ico.triangles, "sphere");
   s.ior = 1.5f;
-  std::vector<float> t;
-  const int w = 32, h = 16;
-  for (int row = 0; row < h; ++row)
-    for (int col = 0; col < w; ++col) {
-      const float u = (col + 0.5f) / w, v = (row + 0.5f) / h;
-      t.insert(t.end(), {0.6f + 0.4f * std::sin(6.2831853f * u), 0.5f + 0.4f * std::cos(3.14159f * v),
-                         0.3f + 0.6f * u * v});
-    }
-  s.set_environment_map(t, w, h);
+  s.set_environment_map(dt_test::smooth_sky(32, 16), 32, 16);
   s.set_homogeneous_absorption(Vec3f(0.3f, 0.6f, 1.2f));
   return s;
 }

@@ -24,15 +24,7 @@ namespace {
 dr::HostScene make_scene(const dt_test::Shape& shape) {
   dr::HostScene s(shape.positions, shape.triangles, "device test");
   s.ior = 1.45f;
-  std::vector<float> t;
-  const int w = 32, h = 16;
-  for (int row = 0; row < h; ++row)
-    for (int col = 0; col < w; ++col) {
-      const float u = (col + 0.5f) / w, v = (row + 0.5f) / h;
-      t.insert(t.end(), {0.6f + 0.4f * std::sin(6.2831853f * u), 0.5f + 0.4f * std::cos(3.14159f * v),
-                         0.3f + 0.6f * u * v});
-    }
-  s.set_environment_map(t, w, h);
+  s.set_environment_map(dt_test::smooth_sky(32, 16), 32, 16);
   std::vector<float> raw(4 * 4 * 4 * 3);
   for (std::size_t i = 0; i < raw.size(); ++i) raw[i] = difftrans::scene::raw_from_sigma(0.2f + 0.1f * float(i % 7));
   s.set_grid_absorption(Vec3i(4, 4, 4), Vec3f(-0.55f), Vec3f(0.55f), raw);

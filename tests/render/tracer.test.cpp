@@ -45,14 +45,7 @@ void two_sided_environment(HostScene& s, const Vec3f& A, const Vec3f& B) {
 
 // A smooth, varied environment for gradient tests.
 void smooth_environment(HostScene& s, int w = 24, int h = 12) {
-  std::vector<float> t;
-  for (int row = 0; row < h; ++row)
-    for (int col = 0; col < w; ++col) {
-      const float u = (col + 0.5f) / w, v = (row + 0.5f) / h;
-      t.insert(t.end(), {0.6f + 0.4f * std::sin(6.2831853f * u), 0.5f + 0.4f * std::cos(3.14159f * v),
-                         0.3f + 0.6f * u * v});
-    }
-  s.set_environment_map(t, w, h);
+  s.set_environment_map(smooth_sky(w, h), w, h);
 }
 
 template <class S>

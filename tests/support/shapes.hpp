@@ -75,6 +75,19 @@ inline Shape make_icosphere(float radius, int levels) {
   return s;
 }
 
+// A smooth, varied w x h equirectangular environment (RGB texels) for tests
+// whose gradients should see the look-up direction.
+inline std::vector<float> smooth_sky(int w, int h) {
+  std::vector<float> t;
+  for (int row = 0; row < h; ++row)
+    for (int col = 0; col < w; ++col) {
+      const float u = (col + 0.5f) / float(w), v = (row + 0.5f) / float(h);
+      t.insert(t.end(), {0.6f + 0.4f * std::sin(6.2831853f * u), 0.5f + 0.4f * std::cos(3.14159f * v),
+                         0.3f + 0.6f * u * v});
+    }
+  return t;
+}
+
 // The triangles of a shared/data mesh ("v x y z", "f a b c", also a/b/c
 // tokens), normalized as PROTOCOL.md says: box centre at the origin, longest
 // side 1. Enough for the closed, triangulated meshes the tests use.

@@ -35,13 +35,6 @@ enum class Reduction : int { sum, mean };
 
 namespace detail {
 
-template <class S, class Reader>
-S reg_read(Reader& reader, const scene::ParamSource& src, std::int32_t index) {
-  if (src.buffer >= 0) return S(reader.read(src.buffer, index));
-  if (!src.values) return S(0);
-  return S(src.values[index]);
-}
-
 template <class S>
 DT_HOST_DEVICE S reg_dot(const Vec3<S>& a, const Vec3<S>& b) {
   return a.x * b.x + a.y * b.y + a.z * b.z;
@@ -207,7 +200,7 @@ S sdf_dilation_loss(const FlexiCubesGrid& grid, const scene::ParamSource& sdf, R
   using T = ad::scalar_t<S>;
   const std::int32_t n = grid.num_vertices();
   S sum(0);
-  for (std::int32_t v = 0; v < n; ++v) sum += detail::reg_read<S>(reader, sdf, v);
+  for (std::int32_t v = 0; v < n; ++v) sum += detail::fc_read<S>(reader, sdf, v);
   return S(sum / T(double(n)));
 }
 
@@ -227,7 +220,7 @@ S sdf_sign_change_bce_loss(const FlexiCubesGrid& grid, const scene::ParamSource&
   std::vector<std::uint8_t> loaded(cache.size(), 0);
   auto get = [&](std::int32_t v) -> const S& {
     if (!loaded[std::size_t(v)]) {
-      cache[std::size_t(v)] = detail::reg_read<S>(reader, sdf, v);
+      cache[std::size_t(v)] = detail::fc_read<S>(reader, sdf, v);
       loaded[std::size_t(v)] = 1;
     }
     return cache[std::size_t(v)];
@@ -262,7 +255,7 @@ S flexicubes_weight_l1(const FlexiCubesInputs& in, Reader& reader) {
   std::int64_t count = 0;
   for (const scene::ParamSource* src : {&in.alpha, &in.beta, &in.gamma}) {
     if (!src->values && src->buffer < 0) continue;
-    for (std::int32_t i = 0; i < src->size; ++i) sum += abs(detail::reg_read<S>(reader, *src, i));
+    for (std::int32_t i = 0; i < src->size; ++i) sum += abs(detail::fc_read<S>(reader, *src, i));
     count += src->size;
   }
   return count > 0 ? S(sum / T(double(count))) : S(0);
@@ -335,11 +328,11 @@ S flexicubes_dev_loss(const FlexiCubesGrid& grid, const FlexiCubesInputs& in, Re
     std::int32_t& sl = slot[std::size_t(v)];
     if (sl >= 0) return sl;
     sl = std::int32_t(s_slot.size());
-    s_slot.push_back(detail::reg_read<S>(reader, in.sdf, v));
+    s_slot.push_back(detail::fc_read<S>(reader, in.sdf, v));
     const Vec3f g = grid.vertex_position(v % V, (v / V) % V, v / (V * V));
     Vec3<S> x;
     for (int a = 0; a < 3; ++a)  // x = grid + reach ⊙ tanh(δ), as in the extraction
-      x[a] = has_deform ? S(T(g[a]) + reach[a] * tanh(detail::reg_read<S>(reader, in.deform, 3 * v + a))) : S(g[a]);
+      x[a] = has_deform ? S(T(g[a]) + reach[a] * tanh(detail::fc_read<S>(reader, in.deform, 3 * v + a))) : S(g[a]);
     x_slot.push_back(x);
     return sl;
   };
@@ -365,7 +358,7 @@ S flexicubes_dev_loss(const FlexiCubesGrid& grid, const FlexiCubesInputs& in, Re
       const int ca = flexicubes_edge_corners[e][0], cb = flexicubes_edge_corners[e][1];
       for (int corner : {ca, cb})
         if (!alpha_read[corner]) {
-          alpha[corner] = has_alpha ? flexicubes_squash_weight(detail::reg_read<S>(reader, in.alpha, 8 * c + corner)) : S(1);
+          alpha[corner] = has_alpha ? flexicubes_squash_weight(detail::fc_read<S>(reader, in.alpha, 8 * c + corner)) : S(1);
           alpha_read[corner] = true;
         }
       const std::int32_t ia = vertex_slot(base + corner_step[ca]), ib = vertex_slot(base + corner_step[cb]);
