@@ -70,26 +70,38 @@ struct StatsPerWorker {
 
 }  // namespace detail
 
+namespace detail {
+
+// A forward pass (plain or Dual): every sample of every pixel traced with
+// scalar S; accumulate(pixel, radiance, weight) adds it to the caller's images.
+template <class S, class Accumulate>
+void forward_pass(const HostScene& s, const SceneView& view, const ad::ParamSet& params, const scene::Camera& cam,
+                  const PassOptions& opt, PassStats* stats, Accumulate&& accumulate) {
+  ThreadPool& pool = ThreadPool::global();
+  StatsPerWorker st(pool.size());
+  pool.parallel_for(std::int64_t(cam.width) * cam.height, 64, [&](std::int64_t b, std::int64_t e, int w) {
+    ad::ParamReader<S> reader(&params);
+    PassStats& ps = st.per[std::size_t(w)];
+    for_each_sample(cam, opt.samples_per_axis, b, e, [&](std::int64_t pix, Vec3f o, Vec3f d, float wt) {
+      accumulate(std::size_t(pix) * 3, trace<S>(view, s.accel(), reader, o, d, opt.trace, &ps.trace), wt);
+      ++ps.rays;
+    });
+  });
+  if (stats) *stats = st.total();
+}
+
+}  // namespace detail
+
 // Linear RGB radiance, width·height·3 values, row 0 at the top; traced in
 // precision T (float, or double for references).
 template <class T = float>
 std::vector<T> render_image(const HostScene& s, const scene::Camera& cam, const PassOptions& opt = {},
                             PassStats* stats = nullptr) {
   std::vector<T> image(std::size_t(cam.width) * cam.height * 3, T(0));
-  const SceneView view = s.view(false);
-  const ad::ParamSet params = s.params();
-  ThreadPool& pool = ThreadPool::global();
-  detail::StatsPerWorker st(pool.size());
-  pool.parallel_for(std::int64_t(cam.width) * cam.height, 64, [&](std::int64_t b, std::int64_t e, int w) {
-    ad::ParamReader<T> reader(&params);
-    PassStats& ps = st.per[std::size_t(w)];
-    detail::for_each_sample(cam, opt.samples_per_axis, b, e, [&](std::int64_t pix, Vec3f o, Vec3f d, float wt) {
-      const Vec3<T> L = trace<T>(view, s.accel(), reader, o, d, opt.trace, &ps.trace);
-      ++ps.rays;
-      for (int c = 0; c < 3; ++c) image[std::size_t(pix) * 3 + c] += wt * L[c];
-    });
-  });
-  if (stats) *stats = st.total();
+  detail::forward_pass<T>(s, s.view(false), s.params(), cam, opt, stats,
+                          [&](std::size_t i, const Vec3<T>& L, float wt) {
+                            for (int c = 0; c < 3; ++c) image[i + c] += wt * L[c];
+                          });
   return image;
 }
 
@@ -155,24 +167,14 @@ inline ImageDerivative render_derivative(const HostScene& s, const scene::Camera
   ImageDerivative out;
   out.value.assign(std::size_t(cam.width) * cam.height * 3, 0.0f);
   out.derivative.assign(out.value.size(), 0.0f);
-  const SceneView view = s.view(true);
   ad::ParamSet params = s.params();
   for (int b = 0; b < param_count; ++b) params.buffers[b].tangents[0] = direction[b];
-  ThreadPool& pool = ThreadPool::global();
-  detail::StatsPerWorker st(pool.size());
-  pool.parallel_for(std::int64_t(cam.width) * cam.height, 64, [&](std::int64_t b, std::int64_t e, int w) {
-    ad::ParamReader<D> reader(&params);
-    PassStats& ps = st.per[std::size_t(w)];
-    detail::for_each_sample(cam, opt.samples_per_axis, b, e, [&](std::int64_t pix, Vec3f o, Vec3f d, float wt) {
-      const Vec3<D> L = trace<D>(view, s.accel(), reader, o, d, opt.trace, &ps.trace);
-      ++ps.rays;
-      for (int c = 0; c < 3; ++c) {
-        out.value[std::size_t(pix) * 3 + c] += wt * L[c].value;
-        out.derivative[std::size_t(pix) * 3 + c] += wt * L[c].grad[0];
-      }
-    });
+  detail::forward_pass<D>(s, s.view(true), params, cam, opt, stats, [&](std::size_t i, const Vec3<D>& L, float wt) {
+    for (int c = 0; c < 3; ++c) {
+      out.value[i + c] += wt * L[c].value;
+      out.derivative[i + c] += wt * L[c].grad[0];
+    }
   });
-  if (stats) *stats = st.total();
   return out;
 }
 
