@@ -6,6 +6,7 @@ add_library(difftrans_embree INTERFACE)
 add_library(difftrans::embree ALIAS difftrans_embree)
 target_link_libraries(difftrans_embree INTERFACE difftrans::difftrans embree Threads::Threads)
 set(DIFFTRANS_TEST_LIBS_accel difftrans::embree)
+set(DIFFTRANS_TEST_LIBS_cuda difftrans::embree)  # the device kernels run on the host against the Embree passes
 set(DIFFTRANS_TEST_LIBS_render difftrans::embree)
 set(DIFFTRANS_BENCH_LIBS_trace difftrans::embree)
 if(TARGET difftrans::io)
