@@ -5,6 +5,7 @@
 // input rejected; refit and rebuild; tree invariants; and the generic tracer
 // gives the same radiance with either intersector.
 #include "support/ad_check.hpp"
+#include "support/scenes.hpp"
 #include "support/shapes.hpp"
 
 #include <algorithm>
@@ -414,16 +415,6 @@ TEST_CASE("refit and rebuild follow moved vertices") {
   CHECK(s2.hit_miss_differ + s2.bad_t + s2.bad_point == 0);
 }
 
-namespace {
-difftrans::render::HostScene sphere_scene() {
-  const Shape ico = make_icosphere(0.5f, 3);
-  difftrans::render::HostScene s(ico.positions, ico.triangles, "sphere");
-  s.ior = 1.5f;
-  s.set_environment_map(dt_test::smooth_sky(32, 16), 32, 16);
-  s.set_homogeneous_absorption(Vec3f(0.3f, 0.6f, 1.2f));
-  return s;
-}
-}  // namespace
 
 TEST_CASE("the tracer renders the same with the BVH as with Embree") {
   using namespace difftrans;

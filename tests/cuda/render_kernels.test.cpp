@@ -2,6 +2,7 @@
 // compiler and run in a loop — the same code the CUDA launches run — against
 // the host passes render_image, render_derivative and render_gradient.
 #include "support/ad_check.hpp"
+#include "support/scenes.hpp"
 #include "support/shapes.hpp"
 
 #include "difftrans/accel/bvh.hpp"
@@ -12,16 +13,6 @@ using namespace dt_test;
 using difftrans::Vec3f;
 using difftrans::accel::Bvh;
 
-namespace {
-difftrans::render::HostScene sphere_scene() {
-  const Shape ico = make_icosphere(0.5f, 3);
-  difftrans::render::HostScene s(ico.positions, ico.triangles, "sphere");
-  s.ior = 1.5f;
-  s.set_environment_map(dt_test::smooth_sky(32, 16), 32, 16);
-  s.set_homogeneous_absorption(Vec3f(0.3f, 0.6f, 1.2f));
-  return s;
-}
-}  // namespace
 
 TEST_CASE("the device pixel kernels, run on the host, match the host passes") {
   // cuda/render_kernels.hpp compiled by the host compiler and run in a loop:

@@ -1,0 +1,20 @@
+// Small host scenes shared by tests of different parts (BVH, device kernels).
+#pragma once
+
+#include "difftrans/render/host_scene.hpp"
+#include "support/shapes.hpp"
+
+namespace dt_test {
+
+// A glass icosphere (radius 0.5, 1280 triangles, IoR 1.5) with homogeneous
+// absorption under the smooth test sky.
+inline difftrans::render::HostScene sphere_scene() {
+  const Shape ico = make_icosphere(0.5f, 3);
+  difftrans::render::HostScene s(ico.positions, ico.triangles, "sphere");
+  s.ior = 1.5f;
+  s.set_environment_map(smooth_sky(32, 16), 32, 16);
+  s.set_homogeneous_absorption(difftrans::Vec3f(0.3f, 0.6f, 1.2f));
+  return s;
+}
+
+}  // namespace dt_test
