@@ -1,12 +1,13 @@
 // difftrans reconstruct: the DiffTrans pipeline on a scene directory, stage
 // by stage. Implemented so far: --stages environment (the distant map fitted
-// to the out-of-mask pixels). Geometry (stage 1) and materials (stage 2)
-// follow in later versions.
+// to the out-of-mask pixels) and geometry (stage 1, stage_geometry.cpp).
+// Materials (stage 2) follow in a later version.
 #include <chrono>
 #include <sstream>
 #include <sys/resource.h>
 
 #include "command.hpp"
+#include "stages.hpp"
 #include "views.hpp"
 
 #include "difftrans/io/contact_sheet.hpp"
@@ -114,22 +115,25 @@ io::Json environment_stage(const io::Scene& scene, const ReconstructOptions& opt
 
 void add_reconstruct(CLI::App& app) {
   auto opt = std::make_shared<ReconstructOptions>();
+  auto geometry = std::make_shared<GeometryStageOptions>();
   CLI::App* cmd = app.add_subcommand("reconstruct", "Reconstruct a transparent object from a scene directory");
   cmd->add_option("scene", opt->scene, "Scene directory (transforms_train.json, images, masks)")->required();
   cmd->add_option("--out", opt->out, "Output directory")->required();
-  cmd->add_option("--stages", opt->stages, "Stages to run, comma-separated: environment")->capture_default_str();
+  cmd->add_option("--stages", opt->stages, "Stages to run, comma-separated: environment, geometry")->capture_default_str();
   cmd->add_option("--env-width", opt->env_width, "Environment map width (0: from the images' angular resolution)");
   cmd->add_option("--env-max-width", opt->env_max_width, "Largest automatic map width")->capture_default_str();
   cmd->add_option("--env-smoothness", opt->smoothness, "Weight of the environment's smoothness prior")->capture_default_str();
   cmd->add_option("--margin", opt->margin, "Pixels around the mask left out of the environment fit")->capture_default_str();
-  cmd->callback([opt] {
+  add_geometry_options(cmd, *geometry);
+  cmd->callback([opt, geometry] {
     std::stringstream ss(opt->stages);
     std::vector<std::string> stages;
     for (std::string s; std::getline(ss, s, ',');)
       if (!s.empty()) stages.push_back(s);
     for (const auto& s : stages)
-      if (s != "environment")
-        throw std::runtime_error("--stages: '" + s + "' is not available in this version (available: environment)");
+      if (s != "environment" && s != "geometry")
+        throw std::runtime_error("--stages: '" + s +
+                                 "' is not available in this version (available: environment, geometry)");
     progress("reconstruct: loading " + opt->scene.string());
     const io::Scene scene = io::load_scene(opt->scene);
     for (const auto& w : scene.warnings) warn(w);
@@ -137,7 +141,11 @@ void add_reconstruct(CLI::App& app) {
     io::Json result;
     result["scene"] = opt->scene.string();
     for (const auto& s : stages)
-      if (s == "environment") result["environment"] = environment_stage(scene, *opt);
+      if (s == "environment") {
+        result["environment"] = environment_stage(scene, *opt);
+      } else if (s == "geometry") {
+        result["geometry"] = geometry_stage(scene, opt->out, *geometry);
+      }
     emit_json(result, opt->out / "reconstruct.json");
   });
 }

@@ -1,0 +1,391 @@
+// difftrans reconstruct --stages geometry: stage 1, the shape from the masks
+// (FlexiCubes + differentiable silhouettes, then remeshing and large-steps
+// refinement). Writes mesh_stage1_raw.obj, mesh_stage1.obj, a strip of masks
+// against rendered silhouettes, the loss curve, and CD / F1 / genus when the
+// scene has a ground-truth mesh. Resumable: the FlexiCubes unknowns are saved
+// to checkpoint_stage1.bin as it runs, and a finished raw mesh is reused.
+#include "stages.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <sys/resource.h>
+
+#include "difftrans/geometry/stage1.hpp"
+#include "difftrans/io/contact_sheet.hpp"
+#include "difftrans/io/mesh_file.hpp"
+#include "difftrans/io/png.hpp"
+#include "difftrans/metrics/chamfer.hpp"
+#include "difftrans/render/background.hpp"
+
+namespace difftrans::cli {
+namespace {
+
+namespace dg = difftrans::geometry;
+using clock_type = std::chrono::steady_clock;
+
+double seconds_since(clock_type::time_point t) { return std::chrono::duration<double>(clock_type::now() - t).count(); }
+
+double peak_rss_mb() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return double(u.ru_maxrss) / 1024.0;
+}
+
+std::string fixed(double v, int digits) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", digits, v);
+  return buf;
+}
+
+io::Mesh to_io_mesh(const std::vector<float>& pos, const std::vector<std::int32_t>& tris) {
+  io::Mesh m;
+  for (std::size_t i = 0; i + 2 < pos.size(); i += 3) m.positions.emplace_back(pos[i], pos[i + 1], pos[i + 2]);
+  for (std::size_t f = 0; f + 2 < tris.size(); f += 3) m.triangles.emplace_back(tris[f], tris[f + 1], tris[f + 2]);
+  return m;
+}
+
+void from_io_mesh(const io::Mesh& m, std::vector<float>& pos, std::vector<std::int32_t>& tris) {
+  pos.clear();
+  tris.clear();
+  for (const Vec3f& p : m.positions) pos.insert(pos.end(), {p.x, p.y, p.z});
+  for (const Vec3i& t : m.triangles) tris.insert(tris.end(), {t.x, t.y, t.z});
+}
+
+// The loss curves as an SVG: log10 of each series against the iteration.
+void write_loss_svg(const std::filesystem::path& path,
+                    const std::vector<std::pair<std::string, std::vector<double>>>& series) {
+  const double W = 800, H = 400, L = 60, R = 20, T = 20, B = 40;
+  double lo = 1e300, hi = -1e300;
+  std::size_t n = 1;
+  for (const auto& s : series) {
+    n = std::max(n, s.second.size());
+    for (double v : s.second)
+      if (v > 0 && std::isfinite(v)) {
+        lo = std::min(lo, std::log10(v));
+        hi = std::max(hi, std::log10(v));
+      }
+  }
+  if (!(hi >= lo)) lo = -1, hi = 0;
+  if (hi - lo < 1e-6) hi = lo + 1;
+  lo = std::floor(lo), hi = std::ceil(hi);
+  const char* colors[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd"};
+  std::ofstream f(path);
+  f << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << W << "\" height=\"" << H << "\" font-family=\"sans-serif\" "
+    << "font-size=\"12\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
+  for (double d = lo; d <= hi + 1e-9; d += 1) {
+    const double y = T + (H - T - B) * (1 - (d - lo) / (hi - lo));
+    f << "<line x1=\"" << L << "\" x2=\"" << W - R << "\" y1=\"" << y << "\" y2=\"" << y << "\" stroke=\"#ddd\"/>"
+      << "<text x=\"4\" y=\"" << y + 4 << "\">1e" << int(d) << "</text>\n";
+  }
+  f << "<text x=\"" << W / 2 << "\" y=\"" << H - 8 << "\">iteration (0 .. " << n - 1 << ")</text>\n";
+  for (std::size_t k = 0; k < series.size(); ++k) {
+    f << "<polyline fill=\"none\" stroke-width=\"1\" stroke=\"" << colors[k % 4] << "\" points=\"";
+    const auto& v = series[k].second;
+    for (std::size_t i = 0; i < v.size(); ++i) {
+      if (!(v[i] > 0) || !std::isfinite(v[i])) continue;
+      const double x = L + (W - L - R) * double(i) / double(std::max<std::size_t>(1, n - 1));
+      const double y = T + (H - T - B) * (1 - (std::log10(v[i]) - lo) / (hi - lo));
+      f << fixed(x, 1) << ',' << fixed(y, 1) << ' ';
+    }
+    f << "\"/>\n<text x=\"" << W - R - 220 << "\" y=\"" << T + 16 * (k + 1) << "\" fill=\"" << colors[k % 4] << "\">"
+      << series[k].first << "</text>\n";
+  }
+  f << "</svg>\n";
+}
+
+// Rows: target mask | rendered silhouette of the mesh | difference (red: mask
+// not covered, blue: covered outside the mask).
+void write_silhouette_strip(const std::filesystem::path& path, const std::vector<dg::Stage1View>& views,
+                            const std::vector<float>& pos, const std::vector<std::int32_t>& tris, int count) {
+  if (views.empty() || tris.empty()) return;
+  const scene::TriangleMesh m(pos, tris);
+  const render::TriangleNeighbors nb = render::TriangleNeighbors::build(m);
+  const auto picked = io::spread_indices(int(views.size()), count);
+  io::SheetLayout layout;
+  layout.tile_width = views.front().camera.width;
+  layout.tile_height = views.front().camera.height;
+  layout.rows = int(picked.size());
+  layout.cols = 3;
+  std::vector<std::vector<io::Image8>> tiles;
+  for (int i : picked) {
+    const dg::Stage1View& v = views[std::size_t(i)];
+    if (v.camera.width != layout.tile_width || v.camera.height != layout.tile_height) continue;
+    const std::vector<float> s = render::silhouette_mask<float>(m, v.camera, &nb);
+    const std::size_t n = s.size();
+    io::Image8 a{layout.tile_width, layout.tile_height, 3, std::vector<std::uint8_t>(3 * n)}, b = a, d = a;
+    for (std::size_t p = 0; p < n; ++p) {
+      const float t = std::clamp(v.target[p], 0.0f, 1.0f), r = std::clamp(s[p], 0.0f, 1.0f);
+      for (int c = 0; c < 3; ++c) {
+        a.data[3 * p + std::size_t(c)] = std::uint8_t(255.0f * t + 0.5f);
+        b.data[3 * p + std::size_t(c)] = std::uint8_t(255.0f * r + 0.5f);
+      }
+      const float miss = std::max(0.0f, t - r), extra = std::max(0.0f, r - t);
+      d.data[3 * p] = std::uint8_t(255.0f * miss + 0.5f);
+      d.data[3 * p + 1] = 0;
+      d.data[3 * p + 2] = std::uint8_t(255.0f * extra + 0.5f);
+    }
+    tiles.push_back({std::move(a), std::move(b), std::move(d)});
+  }
+  layout.rows = int(tiles.size());
+  if (!tiles.empty()) io::write_png8(path, io::compose_sheet(layout, tiles));
+}
+
+io::Json geometry_record(const std::vector<float>& pos, const std::vector<std::int32_t>& tris) {
+  const dg::MeshGenus g = dg::mesh_genus(tris, std::int32_t(pos.size() / 3));
+  io::Json j;
+  j["vertices"] = g.vertices;
+  j["triangles"] = g.faces;
+  j["components"] = g.components;
+  j["euler_characteristic"] = g.euler;
+  j["genus"] = g.genus;
+  j["closed"] = g.closed;
+  return j;
+}
+
+}  // namespace
+
+void add_geometry_options(CLI::App* cmd, GeometryStageOptions& opt) {
+  cmd->add_option("--grid", opt.grid, "Geometry: FlexiCubes resolution (cubes per axis)")->capture_default_str();
+  cmd->add_option("--iterations", opt.iterations, "Geometry: FlexiCubes iterations")->capture_default_str();
+  cmd->add_option("--batch", opt.views_per_iteration, "Geometry: training views per FlexiCubes iteration")->capture_default_str();
+  cmd->add_option("--refine-iterations", opt.refine_iterations, "Geometry: large-steps iterations after remeshing")
+      ->capture_default_str();
+  cmd->add_option("--refine-batch", opt.refine_views, "Geometry: training views per refinement iteration")->capture_default_str();
+  cmd->add_option("--lr", opt.lr, "Geometry: FlexiCubes learning rate lr0 (decays as lr0 10^(-0.0002 i))")->capture_default_str();
+  cmd->add_option("--adam-eps", opt.adam_eps, "Geometry: Adam's epsilon for the FlexiCubes unknowns")->capture_default_str();
+  cmd->add_option("--weights", opt.weights,
+                  "Geometry: loss weights NAME=VALUE,... (mask, dilation, smoothness, bce, area, dev, developability, weight_l1)");
+  cmd->add_option("--box-margin", opt.margin, "Geometry: margin around the unit box when scene.json has no aabb")
+      ->capture_default_str();
+  cmd->add_option("--smoothness", opt.smoothness, "Geometry: smoothness term of the FlexiCubes phase: screen, edge or none")
+      ->capture_default_str();
+  cmd->add_option("--init", opt.init, "Geometry: initial SDF: hull (visual hull of the masks) or sphere (the paper's)")
+      ->capture_default_str();
+  cmd->add_option("--checkpoint-every", opt.checkpoint_every, "Geometry: iterations between checkpoints")->capture_default_str();
+  cmd->add_option("--metric-samples", opt.metric_samples, "Geometry: points per mesh for CD / F1")->capture_default_str();
+  cmd->add_flag("--restart", opt.restart, "Geometry: ignore the checkpoint and finished meshes in --out");
+}
+
+io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out, const GeometryStageOptions& opt) {
+  const auto t_start = clock_type::now();
+  namespace fs = std::filesystem;
+  // training views with masks
+  std::vector<dg::Stage1View> views;
+  for (const io::Frame& f : scene.train.frames) {
+    if (f.mask.width == 0) {
+      warn("geometry: frame " + f.name + " has no mask; it is not used");
+      continue;
+    }
+    dg::Stage1View v;
+    v.camera = render::camera_of(f);
+    if (f.mask.width != v.camera.width || f.mask.height != v.camera.height)
+      throw std::runtime_error("geometry: the mask of frame " + f.name + " does not match its camera's size");
+    v.target.resize(f.mask.inside.size());
+    for (std::size_t p = 0; p < v.target.size(); ++p) v.target[p] = f.mask.inside[p] ? 1.0f : 0.0f;
+    views.push_back(std::move(v));
+  }
+  if (views.empty()) throw std::runtime_error("geometry: no training frame has a mask");
+
+  dg::Stage1Config cfg;
+  cfg.grid_resolution = opt.grid;
+  cfg.iterations = opt.iterations;
+  cfg.views_per_iteration = opt.views_per_iteration;
+  cfg.refine_iterations = opt.refine_iterations;
+  cfg.refine_views_per_iteration = opt.refine_views;
+  cfg.lr = opt.lr;
+  cfg.adam_eps = opt.adam_eps;
+  {
+    std::stringstream ss(opt.weights);
+    for (std::string item; std::getline(ss, item, ',');) {
+      if (item.empty()) continue;
+      const auto eq = item.find('=');
+      const std::string name = item.substr(0, eq);
+      float* w = name == "mask"             ? &cfg.weights.mask
+                 : name == "dilation"       ? &cfg.weights.dilation
+                 : name == "smoothness"     ? &cfg.weights.smoothness
+                 : name == "bce"            ? &cfg.weights.bce
+                 : name == "area"           ? &cfg.weights.area
+                 : name == "dev"            ? &cfg.weights.dev
+                 : name == "developability" ? &cfg.weights.developability
+                 : name == "weight_l1"      ? &cfg.weights.weight_l1
+                                            : nullptr;
+      if (!w || eq == std::string::npos) throw std::runtime_error("--weights: '" + item + "' is not NAME=VALUE with a known NAME");
+      try {
+        *w = std::stof(item.substr(eq + 1));
+      } catch (const std::exception&) {
+        throw std::runtime_error("--weights: '" + item + "' has no number after '='");
+      }
+    }
+  }
+  // the schedule scales with the iteration count (the paper's: 1000 = 100 mask + 50-periods, developability from 800)
+  cfg.mask_only_iterations = std::max(1, opt.iterations / 10);
+  cfg.alternate_period = std::max(1, opt.iterations / 20);
+  cfg.developability_start = opt.iterations * 8 / 10;
+  if (opt.smoothness == "screen") {
+    cfg.smoothness = dg::Stage1Smoothness::screen_space;
+  } else if (opt.smoothness == "edge") {
+    cfg.smoothness = dg::Stage1Smoothness::edge_normal;
+  } else if (opt.smoothness == "none") {
+    cfg.smoothness = dg::Stage1Smoothness::none;
+  } else {
+    throw std::runtime_error("--smoothness: '" + opt.smoothness + "' is not one of screen, edge, none");
+  }
+  if (opt.init != "hull" && opt.init != "sphere")
+    throw std::runtime_error("--init: '" + opt.init + "' is not one of hull, sphere");
+  if (scene.settings.aabb && !scene.settings.aabb->empty()) {
+    cfg.box_lo = Vec3f(scene.settings.aabb->lo);
+    cfg.box_hi = Vec3f(scene.settings.aabb->hi);
+  } else {
+    dg::stage1_unit_box(cfg, opt.margin);
+  }
+
+  const fs::path raw_path = out / "mesh_stage1_raw.obj", final_path = out / "mesh_stage1.obj",
+                 ckpt_path = out / "checkpoint_stage1.bin";
+  io::Json j;
+  j["grid"] = cfg.grid_resolution;
+  j["box"] = {{cfg.box_lo.x, cfg.box_lo.y, cfg.box_lo.z}, {cfg.box_hi.x, cfg.box_hi.y, cfg.box_hi.z}};
+  j["training_views"] = views.size();
+  j["iterations"] = cfg.iterations;
+  j["views_per_iteration"] = cfg.views_per_iteration;
+  j["smoothness"] = opt.smoothness;
+  j["init"] = opt.init;
+  j["adam_eps"] = cfg.adam_eps;
+  j["weights"] = {{"mask", cfg.weights.mask},           {"dilation", cfg.weights.dilation}, {"smoothness", cfg.weights.smoothness},
+                  {"bce", cfg.weights.bce},             {"area", cfg.weights.area},         {"dev", cfg.weights.dev},
+                  {"developability", cfg.weights.developability}, {"weight_l1", cfg.weights.weight_l1}};
+
+  // ---- FlexiCubes (or the finished raw mesh)
+  std::vector<float> raw_pos;
+  std::vector<std::int32_t> raw_tris;
+  std::vector<double> fc_loss, fc_mask;
+  double fc_seconds = 0.0, mean_iteration = 0.0;
+  if (!opt.restart && fs::exists(raw_path)) {
+    progress("geometry: reusing " + raw_path.string() + " (finished earlier; --restart recomputes it)");
+    from_io_mesh(io::read_mesh(raw_path), raw_pos, raw_tris);
+    j["raw_reused"] = true;
+  } else {
+    const auto t0 = clock_type::now();
+    dg::Stage1FlexiCubes fc(cfg);
+    bool resumed = false;
+    if (!opt.restart && fs::exists(ckpt_path)) {
+      resumed = fc.load(ckpt_path);
+      if (resumed)
+        progress("geometry: resuming from " + ckpt_path.string() + " at iteration " + std::to_string(fc.iteration()));
+      else
+        warn("geometry: " + ckpt_path.string() + " is for another grid or unreadable; starting afresh");
+    }
+    if (!resumed && opt.init == "hull") fc.init_visual_hull(views);
+    j["resumed_at"] = fc.iteration();
+    progress("geometry: FlexiCubes " + std::to_string(cfg.grid_resolution) + "^3 over " + std::to_string(views.size()) +
+             " views, " + std::to_string(cfg.iterations) + " iterations, " + std::to_string(cfg.views_per_iteration) +
+             " views per iteration");
+    auto last_print = clock_type::now(), last_save = clock_type::now();
+    double sum_it = 0.0;
+    int counted = 0;
+    while (!fc.done()) {
+      const dg::Stage1Stats s = fc.step(views);
+      sum_it += s.seconds;
+      ++counted;
+      const bool last = fc.done();
+      if (last || s.iteration < 3 || seconds_since(last_print) > 2.0) {
+        progress("geometry: it " + std::to_string(s.iteration + 1) + "/" + std::to_string(cfg.iterations) + " [" +
+                 s.phase + "] loss " + fixed(s.loss, 5) + " mask " + fixed(s.mask, 5) + " lr " + fixed(s.lr, 5) + "  " +
+                 std::to_string(s.triangles) + " tris  " + fixed(s.seconds, 3) + " s/it (extract " +
+                 fixed(s.extract_seconds, 3) + ", silhouettes " + fixed(s.render_seconds, 3) + ", backward " +
+                 fixed(s.backward_seconds, 3) + ")  elapsed " + fixed(seconds_since(t0), 1) + " s");
+        last_print = clock_type::now();
+      }
+      if (last || (opt.checkpoint_every > 0 && fc.iteration() % opt.checkpoint_every == 0) ||
+          seconds_since(last_save) > 60.0) {
+        fc.save(ckpt_path);
+        last_save = clock_type::now();
+      }
+    }
+    mean_iteration = counted ? sum_it / counted : 0.0;
+    fc_loss = fc.loss_history();
+    fc_mask = fc.mask_history();
+    const dg::FlexiCubesMesh<float> mesh = fc.extract(dg::QuadSplit::two_triangles);
+    for (const Vec3f& v : mesh.vertices) raw_pos.insert(raw_pos.end(), {v.x, v.y, v.z});
+    raw_tris = mesh.triangles;
+    if (raw_tris.empty()) throw std::runtime_error("geometry: the FlexiCubes grid holds no surface at the end");
+    io::write_mesh(raw_path, to_io_mesh(raw_pos, raw_tris));
+    fc_seconds = seconds_since(t0);
+    j["flexicubes_seconds"] = fc_seconds;
+    j["seconds_per_iteration"] = mean_iteration;
+    progress("geometry: wrote " + raw_path.string() + " (" + fixed(fc_seconds, 1) + " s)");
+  }
+  j["raw"] = geometry_record(raw_pos, raw_tris);
+  j["raw"]["mask_l1_train"] = dg::stage1_mask_error(raw_pos, raw_tris, views);
+
+  // ---- remeshing and large-steps refinement
+  std::vector<float> pos = raw_pos;
+  std::vector<std::int32_t> tris = raw_tris;
+  const int dropped = dg::drop_small_components(pos, tris);
+  j["dropped_components"] = dropped;
+  if (dropped) progress("geometry: dropped " + std::to_string(dropped) + " small component(s) before remeshing");
+  std::vector<double> ref_loss;
+  if (!opt.restart && fs::exists(final_path) && j.contains("raw_reused")) {
+    progress("geometry: reusing " + final_path.string());
+    from_io_mesh(io::read_mesh(final_path), pos, tris);
+  } else {
+    const auto t1 = clock_type::now();
+    progress("geometry: remeshing and " + std::to_string(cfg.refine_iterations) + " large-steps iterations");
+    auto last_print = clock_type::now();
+    const dg::Stage1RefineResult r = dg::stage1_refine(pos, tris, views, cfg, [&](const dg::Stage1RefineStats& s) {
+      if (s.iteration + 1 == cfg.refine_iterations || seconds_since(last_print) > 2.0) {
+        progress("geometry: refine " + std::to_string(s.iteration + 1) + "/" + std::to_string(cfg.refine_iterations) +
+                 " loss " + fixed(s.loss, 5) + " mask " + fixed(s.mask, 5) + "  " + fixed(s.seconds, 3) + " s/it");
+        last_print = clock_type::now();
+      }
+    });
+    if (!r.remeshed) warn("geometry: the remesher did not accept the mesh (not a closed manifold); refined as extracted");
+    pos = r.positions;
+    tris = r.triangles;
+    ref_loss = r.loss;
+    io::write_mesh(final_path, to_io_mesh(pos, tris));
+    j["remeshed"] = r.remeshed;
+    j["remesh_target_length"] = r.target_length;
+    j["remesh_seconds"] = r.remesh_seconds;
+    j["refine_seconds"] = r.refine_seconds;
+    j["refine_total_seconds"] = seconds_since(t1);
+    progress("geometry: wrote " + final_path.string());
+  }
+  j["final"] = geometry_record(pos, tris);
+  j["final"]["mask_l1_train"] = dg::stage1_mask_error(pos, tris, views);
+
+  // ---- pictures
+  write_silhouette_strip(out / "stage1_silhouettes.png", views, pos, tris, opt.sheet_views);
+  if (!fc_loss.empty() || !ref_loss.empty())
+    write_loss_svg(out / "stage1_loss.svg",
+                   {{"FlexiCubes total", fc_loss}, {"FlexiCubes mask L1", fc_mask}, {"refinement (mask + edge)", ref_loss}});
+
+  // ---- metrics against the ground truth (PROTOCOL.md: both normalized with the truth's unit-box transform)
+  if (!scene.gt.mesh.empty() && fs::exists(scene.gt.mesh)) {
+    const io::Mesh gt = io::read_mesh(scene.gt.mesh);
+    metrics::GeometryOptions go;
+    go.samples = opt.metric_samples;
+    const auto raw_m = metrics::evaluate_geometry(to_io_mesh(raw_pos, raw_tris), gt, go);
+    const auto fin_m = metrics::evaluate_geometry(to_io_mesh(pos, tris), gt, go);
+    const std::vector<std::int32_t> gt_tris = [&] {
+      std::vector<std::int32_t> t;
+      for (const Vec3i& x : gt.triangles) t.insert(t.end(), {x.x, x.y, x.z});
+      return t;
+    }();
+    j["raw"]["chamfer"] = raw_m.chamfer;
+    j["raw"]["f1"] = raw_m.f1;
+    j["final"]["chamfer"] = fin_m.chamfer;
+    j["final"]["f1"] = fin_m.f1;
+    j["gt_genus"] = dg::mesh_genus(gt_tris, std::int32_t(gt.positions.size())).genus;
+    progress("geometry: CD " + fixed(fin_m.chamfer, 6) + " F1 " + fixed(fin_m.f1, 4) + " (raw: CD " +
+             fixed(raw_m.chamfer, 6) + " F1 " + fixed(raw_m.f1, 4) + ")");
+  }
+  j["seconds"] = seconds_since(t_start);
+  j["peak_memory_mb"] = peak_rss_mb();
+  return j;
+}
+
+}  // namespace difftrans::cli

@@ -1,0 +1,39 @@
+// Stages of `difftrans reconstruct` that live in their own files: options
+// (added to the subcommand) and the function that runs the stage.
+#pragma once
+
+#include <cstddef>
+#include <filesystem>
+#include <string>
+
+#include "command.hpp"
+
+#include "difftrans/io/dataset.hpp"
+
+namespace difftrans::cli {
+
+// Stage 1 (geometry from masks): stage_geometry.cpp.
+struct GeometryStageOptions {
+  int grid = 64;                 // FlexiCubes cubes per axis
+  int iterations = 1000;         // FlexiCubes iterations
+  int views_per_iteration = 8;   // training views per FlexiCubes iteration
+  int refine_iterations = 1000;  // large-steps iterations after remeshing
+  int refine_views = 8;          // training views per refinement iteration
+  float lr = 0.01f;
+  float adam_eps = 1e-8f;
+  std::string weights;           // NAME=VALUE,... overriding Stage1Weights (mask, dilation, smoothness, bce, area, dev, developability, weight_l1)
+  float margin = 0.1f;           // around the unit box when scene.json has no aabb
+  std::string smoothness = "screen";  // screen | edge | none
+  std::string init = "hull";     // hull (the masks' visual hull) | sphere (the paper's start)
+  int checkpoint_every = 50;     // iterations between checkpoints (and at most 60 s apart)
+  int sheet_views = 4;           // rows of the silhouette comparison strip
+  std::size_t metric_samples = 200000;
+  bool restart = false;          // ignore checkpoint and finished meshes
+};
+
+void add_geometry_options(CLI::App* cmd, GeometryStageOptions& opt);
+
+// Runs stage 1 on the scene's training views, writing into `out`; returns the stage's JSON record.
+io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out, const GeometryStageOptions& opt);
+
+}  // namespace difftrans::cli

@@ -1,0 +1,834 @@
+// Stage 1 of DiffTrans: the object's shape from its masks alone. A FlexiCubes
+// grid is optimized against anti-aliased silhouettes (mask L1) with the
+// regularizers and the three-phase schedule of the paper; the extracted mesh
+// is then remeshed (Botsch–Kobbelt) and refined with the large-steps optimizer
+// on mask L1 + edge-normal smoothness.
+#pragma once
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <memory>
+#include <numeric>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "difftrans/ad/params.hpp"
+#include "difftrans/ad/tape.hpp"
+#include "difftrans/geometry/flexicubes.hpp"
+#include "difftrans/geometry/regularizers.hpp"
+#include "difftrans/geometry/remesh.hpp"
+#include "difftrans/optim/adam.hpp"
+#include "difftrans/optim/large_steps.hpp"
+#include "difftrans/render/silhouette.hpp"
+#include "difftrans/scene/camera.hpp"
+#include "difftrans/scene/mesh.hpp"
+
+namespace difftrans::geometry {
+
+// One training view: its camera and the target mask (width·height values in
+// [0, 1], row 0 at the top, as the rasterizer stores pixels).
+struct Stage1View {
+  scene::Camera camera;
+  std::vector<float> target;
+};
+
+// The smoothness term of the FlexiCubes phase: the screen-space term of the
+// paper (|∇d| + |∇n| + |∇²n| over the rendered depth / normal maps) or, where
+// that is too slow, edge-normal smoothness (1 − n_i·n_j)² on the mesh.
+enum class Stage1Smoothness : int { screen_space, edge_normal, none };
+
+// Loss weights. The mask L1 is the mean over a view's pixels, averaged over
+// the views of a batch; every other term as its function in regularizers.hpp
+// / silhouette.hpp computes it.
+struct Stage1Weights {
+  float mask = 1.0f;
+  float dilation = 0.1f;         // mean SDF (tape-free), in the dilation phases
+  float smoothness = 5e-4f;      // screen-space or edge-normal, in the smoothness phases (0.02 visibly hurt the mask fit)
+  float bce = 0.01f;             // BCE-with-logits on sign-changing grid edges
+  float area = 0.1f;             // mean face area
+  float dev = 0.1f;              // FlexiCubes' L_dev
+  float developability = 0.01f;  // Stein et al. 2018, late only
+  float weight_l1 = 1e-3f;       // L1 on the raw FlexiCubes weights (tape-free)
+};
+
+struct Stage1Config {
+  // grid
+  int grid_resolution = 64;     // cubes per axis (32 in tests)
+  Vec3f box_lo{-0.6f}, box_hi{0.6f};  // the object's box: scene.json's aabb, or the unit box with a margin
+  float init_radius = 0.0f;     // initial sphere's radius; <= 0: 0.35 of the box's smallest side
+  // schedule (the paper: 1000 iterations, mask only for 100, then dilation /
+  // smoothness alternating every 50, developability late)
+  int iterations = 1000;
+  int mask_only_iterations = 100;
+  int alternate_period = 50;     // first period after mask-only: dilation, then smoothness, ...
+  int developability_start = 800;
+  float lr = 0.01f;              // lr0 · 10^(−lr_decay · i)
+  float lr_decay = 0.0002f;
+  // Adam's ε. Adam scales every entry's step to about lr whatever its
+  // gradient's size, so a grid vertex that only a regularizer reaches moves as
+  // fast as one on the silhouette; a larger ε (comparable to the mask
+  // gradients) makes such small gradients take proportionally small steps.
+  float adam_eps = 1e-8f;
+  int views_per_iteration = 8;   // the batch of training views per iteration
+  Stage1Smoothness smoothness = Stage1Smoothness::screen_space;
+  float dilation_band = 0.0f;    // dilation acts on grid vertices within this many cells of a sign change (see below)
+  Stage1Weights weights;
+  std::uint64_t seed = 1;        // the views of iteration i are drawn from seed + i (reproducible across resume)
+  // refinement
+  float remesh_edge_length = 0.0f;  // <= 0: one grid cell (the box's longest side / resolution)
+  int remesh_iterations = 5;
+  int refine_iterations = 1000;
+  int refine_views_per_iteration = 8;
+  float refine_lr = 3e-3f;          // AdamUniform on u = (I + λL) x
+  double refine_lambda = 19.0;
+  float refine_edge_normal = 1e-3f;  // weight of Σ (1 − n_i·n_j)² (mean over interior edges)
+};
+
+// The unit box [-1/2, 1/2]³ of PROTOCOL.md's normalized objects, grown by `margin` on every side.
+inline void stage1_unit_box(Stage1Config& c, float margin = 0.1f) {
+  c.box_lo = Vec3f(-0.5f - margin);
+  c.box_hi = Vec3f(0.5f + margin);
+}
+
+// What one iteration did.
+struct Stage1Stats {
+  int iteration = 0;
+  double loss = 0.0;        // weighted total of the terms evaluated this iteration
+  double mask = 0.0;        // mean mask L1 over the batch (unweighted)
+  double dilation = 0.0, smoothness = 0.0, bce = 0.0, area = 0.0, dev = 0.0, developability = 0.0, weight_l1 = 0.0;
+  float lr = 0.0f;
+  std::int32_t vertices = 0, triangles = 0;
+  std::int64_t tape_nodes = 0;
+  double seconds = 0.0;           // wall time of the iteration
+  double extract_seconds = 0.0;   // extraction on the tape
+  double render_seconds = 0.0;    // silhouettes, mask loss and their backward
+  double backward_seconds = 0.0;  // regularizers on the tape, propagation, scatter, Adam
+  const char* phase = "mask";
+};
+
+namespace detail {
+
+// Adam whose moments can be written back from a checkpoint.
+class Stage1Adam : public optim::Adam {
+ public:
+  using optim::Adam::Adam;
+  void restore(const std::vector<float>& g1, const std::vector<float>& g2, int steps) {
+    g1_ = g1;
+    g2_ = g2;
+    steps_ = steps;
+  }
+};
+
+template <class T>
+void s1_write(std::ofstream& f, const T& v) {
+  f.write(reinterpret_cast<const char*>(&v), sizeof(T));
+}
+template <class T>
+void s1_write_vec(std::ofstream& f, const std::vector<T>& v) {
+  s1_write(f, std::uint64_t(v.size()));
+  if (!v.empty()) f.write(reinterpret_cast<const char*>(v.data()), std::streamsize(v.size() * sizeof(T)));
+}
+template <class T>
+bool s1_read(std::ifstream& f, T& v) {
+  return bool(f.read(reinterpret_cast<char*>(&v), sizeof(T)));
+}
+template <class T>
+bool s1_read_vec(std::ifstream& f, std::vector<T>& v, std::uint64_t limit) {
+  std::uint64_t n = 0;
+  if (!s1_read(f, n) || n > limit) return false;
+  v.resize(std::size_t(n));
+  return n == 0 || bool(f.read(reinterpret_cast<char*>(v.data()), std::streamsize(n * sizeof(T))));
+}
+
+}  // namespace detail
+
+// The FlexiCubes phase: the unknowns (one flat array, five ParamSet buffers
+// into it), Adam over all of them, and one optimization step at a time.
+//
+// Dilation: the paper's term is the mean SDF over all grid vertices. Its
+// gradient is the same constant 1/n everywhere, and Adam normalizes every
+// entry's step, so grid vertices far from the surface (no other gradient)
+// would all move by the full learning rate each step and, within one
+// 50-iteration phase, turn the whole grid inside. Here the term's gradient
+// (sdf_dilation_backward) is kept only on the grid vertices within
+// `dilation_band` cells of a sign-changing edge, where the other terms
+// balance it; the reported value is the term over the whole grid.
+class Stage1FlexiCubes {
+ public:
+  static constexpr int buf_sdf = 0, buf_deform = 1, buf_alpha = 2, buf_beta = 3, buf_gamma = 4;
+
+  explicit Stage1FlexiCubes(const Stage1Config& config) : config_(config) {
+    grid_.res = std::max(2, config.grid_resolution);
+    grid_.lo = config.box_lo;
+    grid_.hi = config.box_hi;
+    const std::int64_t nv = grid_.num_vertices(), nc = grid_.num_cubes();
+    const std::int64_t sizes[5] = {nv, 3 * nv, 8 * nc, 12 * nc, nc};
+    std::int64_t at = 0;
+    for (int b = 0; b < 5; ++b) {
+      offset_[b] = at;
+      size_[b] = sizes[b];
+      at += sizes[b];
+    }
+    params_.assign(std::size_t(at), 0.0f);
+    grad_.assign(std::size_t(at), 0.0f);
+    optim::AdamOptions ao;
+    ao.lr = config.lr;
+    ao.eps = config.adam_eps;
+    adam_ = detail::Stage1Adam(params_.size(), ao);
+    init_sphere();
+  }
+
+  // SDF of a sphere centred in the box, s = |x − c| − r (s < 0 inside);
+  // deformations and weights at raw 0 (neutral). Resets the optimizer.
+  void init_sphere(float radius = 0.0f) {
+    const Vec3f size = grid_.hi - grid_.lo, c = 0.5f * (grid_.lo + grid_.hi);
+    if (!(radius > 0.0f)) radius = config_.init_radius > 0.0f ? config_.init_radius : 0.35f * std::min(size.x, std::min(size.y, size.z));
+    std::fill(params_.begin(), params_.end(), 0.0f);
+    const int V = grid_.res + 1;
+    float* s = params_.data() + offset_[buf_sdf];
+    for (int k = 0; k < V; ++k)
+      for (int j = 0; j < V; ++j)
+        for (int i = 0; i < V; ++i) s[grid_.vertex_index(i, j, k)] = glm::length(grid_.vertex_position(i, j, k) - c) - radius;
+    adam_.reset(params_.size());
+    iteration_ = 0;
+    history_.clear();
+    mask_history_.clear();
+  }
+
+  // SDF from the views' visual hull (not the paper's start, an option): a
+  // grid vertex is inside when it projects into every view's mask (views
+  // that do not see it do not count); s = ∓(d + 1/2) h with d the grid
+  // (6-neighbour) distance to the nearest vertex on a sign-changing edge and
+  // h the smallest cell side, so values grow away from the surface as a
+  // distance would (small values everywhere would let every step flip signs),
+  // then `smoothing` passes of 6-neighbour averaging. Unlike
+  // the sphere, this opens holes the masks see through (a torus's), which
+  // silhouette gradients alone cannot: they act only on the rendered
+  // silhouette's outline. Resets the optimizer.
+  void init_visual_hull(const std::vector<Stage1View>& views, int smoothing = 1) {
+    std::fill(params_.begin(), params_.end(), 0.0f);
+    const int R = grid_.res, V = R + 1;
+    const float h = 0.5f * glm::length(grid_.cell());
+    float* s = sdf();
+    for (int k = 0; k < V; ++k)
+      for (int j = 0; j < V; ++j)
+        for (int i = 0; i < V; ++i) {
+          const Vec3f p = grid_.vertex_position(i, j, k);
+          bool inside = true;
+          for (const Stage1View& v : views) {
+            const scene::Projection<float> q = v.camera.project(p);
+            if (!q.valid) continue;
+            const int x = int(std::floor(q.pixel.x)), y = int(std::floor(q.pixel.y));
+            if (x < 0 || y < 0 || x >= v.camera.width || y >= v.camera.height) continue;
+            if (v.target[std::size_t(y) * std::size_t(v.camera.width) + std::size_t(x)] < 0.5f) {
+              inside = false;
+              break;
+            }
+          }
+          s[grid_.vertex_index(i, j, k)] = inside ? -h : h;
+        }
+    {  // breadth-first layers from the vertices on sign-changing edges
+      const std::int32_t nv = grid_.num_vertices();
+      std::vector<std::int32_t> layer(static_cast<std::size_t>(nv), -1), queue;
+      const std::int32_t step[3] = {1, V, V * V};
+      for (int k = 0; k < V; ++k)
+        for (int j = 0; j < V; ++j)
+          for (int i = 0; i < V; ++i) {
+            const std::int32_t a = grid_.vertex_index(i, j, k);
+            const int x[3] = {i, j, k};
+            bool edge = false;
+            for (int axis = 0; axis < 3 && !edge; ++axis) {
+              if (x[axis] > 0 && (s[a - step[axis]] < 0.0f) != (s[a] < 0.0f)) edge = true;
+              if (x[axis] < R && (s[a + step[axis]] < 0.0f) != (s[a] < 0.0f)) edge = true;
+            }
+            if (edge) {
+              layer[std::size_t(a)] = 0;
+              queue.push_back(a);
+            }
+          }
+      for (std::size_t q = 0; q < queue.size(); ++q) {
+        const std::int32_t a = queue[q];
+        const int x[3] = {a % V, (a / V) % V, a / (V * V)};
+        for (int axis = 0; axis < 3; ++axis)
+          for (int dir = -1; dir <= 1; dir += 2) {
+            const int y = x[axis] + dir;
+            if (y < 0 || y > R) continue;
+            const std::int32_t b = a + dir * step[axis];
+            if (layer[std::size_t(b)] >= 0) continue;
+            layer[std::size_t(b)] = layer[std::size_t(a)] + 1;
+            queue.push_back(b);
+          }
+      }
+      const Vec3f cell = grid_.cell();
+      const float side = std::min(cell.x, std::min(cell.y, cell.z));
+      for (std::int32_t a = 0; a < nv; ++a) {
+        const float d = layer[std::size_t(a)] >= 0 ? float(layer[std::size_t(a)]) + 0.5f : float(R);
+        s[a] = s[a] < 0.0f ? -d * side : d * side;
+      }
+    }
+    std::vector<float> tmp(std::size_t(grid_.num_vertices()));
+    for (int pass = 0; pass < smoothing; ++pass) {
+      for (int k = 0; k < V; ++k)
+        for (int j = 0; j < V; ++j)
+          for (int i = 0; i < V; ++i) {
+            const std::int32_t a = grid_.vertex_index(i, j, k);
+            float sum = s[a];
+            int n = 1;
+            const int x[3] = {i, j, k};
+            const std::int32_t step[3] = {1, V, V * V};
+            for (int axis = 0; axis < 3; ++axis) {
+              if (x[axis] > 0) sum += s[a - step[axis]], ++n;
+              if (x[axis] < R) sum += s[a + step[axis]], ++n;
+            }
+            tmp[std::size_t(a)] = sum / float(n);
+          }
+      std::copy(tmp.begin(), tmp.end(), s);
+    }
+    keep_border_outside();
+    adam_.reset(params_.size());
+    iteration_ = 0;
+    history_.clear();
+    mask_history_.clear();
+  }
+
+  const FlexiCubesGrid& grid() const { return grid_; }
+  const Stage1Config& config() const { return config_; }
+  Stage1Config& config() { return config_; }
+  int iteration() const { return iteration_; }
+  bool done() const { return iteration_ >= config_.iterations; }
+  const std::vector<float>& parameters() const { return params_; }
+  const std::vector<double>& loss_history() const { return history_; }  // total loss per finished iteration
+  const std::vector<double>& mask_history() const { return mask_history_; }
+  float* sdf() { return params_.data() + offset_[buf_sdf]; }
+  const float* sdf() const { return params_.data() + offset_[buf_sdf]; }
+
+  // The unknowns as extraction inputs, differentiable (buffers 0..4) or constant.
+  FlexiCubesInputs inputs(bool differentiable) const {
+    FlexiCubesInputs in;
+    scene::ParamSource* src[5] = {&in.sdf, &in.deform, &in.alpha, &in.beta, &in.gamma};
+    for (int b = 0; b < 5; ++b)
+      *src[b] = scene::ParamSource{params_.data() + offset_[b], std::int32_t(size_[b]), differentiable ? b : -1};
+    return in;
+  }
+
+  // The current mesh in float (two_triangles: the paper's inference split).
+  FlexiCubesMesh<float> extract(QuadSplit split = QuadSplit::two_triangles) const {
+    FlexiCubesOptions o;
+    o.split = split;
+    return flexicubes_extract<float>(grid_, inputs(false), o);
+  }
+
+  // The phase of iteration i: "mask", "dilation" or "smoothness".
+  const char* phase(int i) const {
+    if (i < config_.mask_only_iterations) return "mask";
+    const int period = std::max(1, config_.alternate_period);
+    return ((i - config_.mask_only_iterations) / period) % 2 == 0 ? "dilation" : "smoothness";
+  }
+
+  // The training views of iteration i: a reproducible draw without repetition.
+  std::vector<int> batch(int i, int num_views, int count) const {
+    std::vector<int> all(std::size_t(std::max(0, num_views)));
+    std::iota(all.begin(), all.end(), 0);
+    std::mt19937_64 rng(config_.seed * 0x9E3779B97F4A7C15ull + std::uint64_t(i));
+    std::shuffle(all.begin(), all.end(), rng);
+    all.resize(std::size_t(std::min(count, num_views)));
+    return all;
+  }
+
+  // One iteration: extraction on the tape, silhouettes and mask L1 of a batch
+  // of views, the phase's regularizers, one backward pass, Adam.
+  Stage1Stats step(const std::vector<Stage1View>& views) {
+    using clock = std::chrono::steady_clock;
+    using V = ad::Var<float>;
+    const auto t0 = clock::now();
+    const int it = iteration_;
+    const Stage1Weights& w = config_.weights;
+    Stage1Stats st;
+    st.iteration = it;
+    st.phase = phase(it);
+    const bool mask_only = it < config_.mask_only_iterations;
+    const bool dilation_phase = std::strcmp(st.phase, "dilation") == 0;
+    const bool smooth_phase = std::strcmp(st.phase, "smoothness") == 0;
+    const bool late = it >= config_.developability_start && !mask_only;
+    st.lr = optim::exponential_lr(config_.lr, it, config_.lr_decay);
+
+    std::fill(grad_.begin(), grad_.end(), 0.0f);
+    ad::ParamSet set;
+    for (int b = 0; b < 5; ++b) {
+      set.buffers[b].values = params_.data() + offset_[b];
+      set.buffers[b].size = std::int32_t(size_[b]);
+      set.buffers[b].gradient = grad_.data() + offset_[b];
+    }
+    const FlexiCubesInputs in = inputs(true);
+    FlexiCubesOptions fo;  // four_triangles: γ gets gradients
+
+    // Record extraction (and the tape's regularizers) until the tape and the
+    // log are large enough; they are kept across iterations.
+    for (int attempt = 0;; ++attempt) {
+      if (!tape_) tape_ = std::make_unique<ad::Tape<float>>(tape_capacity_);
+      if (log_.size() < std::size_t(log_capacity_)) log_.resize(std::size_t(log_capacity_));
+      tape_->reset();
+      ad::ParamReader<V> reader(&set, tape_.get(), log_.data(), log_capacity_);
+      const auto te = clock::now();
+      FlexiCubesMesh<V> mesh = flexicubes_extract<V>(grid_, in, reader, fo);
+      st.extract_seconds = seconds_since(te);
+      st.vertices = std::int32_t(mesh.vertices.size());
+      st.triangles = mesh.num_triangles();
+
+      // float mesh, silhouettes and mask gradient w.r.t. the vertices
+      const auto tr = clock::now();
+      std::vector<float> pos(3 * mesh.vertices.size());
+      for (std::size_t v = 0; v < mesh.vertices.size(); ++v)
+        for (int c = 0; c < 3; ++c) pos[3 * v + std::size_t(c)] = mesh.vertices[v][c].value;
+      std::vector<float> gpos(pos.size(), 0.0f);
+      std::vector<V> terms;
+      std::vector<float> term_weights;
+      if (!mesh.triangles.empty()) {
+        const scene::TriangleMesh fm(pos, mesh.triangles);
+        const render::TriangleNeighbors nb = render::TriangleNeighbors::build(fm);
+        const std::vector<int> picked = batch(it, int(views.size()), config_.views_per_iteration);
+        const float per_view = 1.0f / float(std::max<std::size_t>(1, picked.size()));
+        std::vector<float> gsmooth;
+        if (smooth_phase && config_.smoothness == Stage1Smoothness::screen_space) gsmooth.assign(pos.size(), 0.0f);
+        for (int vi : picked) {
+          const Stage1View& view = views[std::size_t(vi)];
+          const render::SilhouetteFrame f = render::prepare_silhouette(fm, nb, view.camera);
+          const std::vector<float> m = render::antialiased_mask<float>(f, fm, view.camera);
+          std::vector<float> adj(m.size());
+          st.mask += render::mask_l1(m, view.target.data(), adj.data()) * per_view;
+          for (float& a : adj) a *= w.mask * per_view;
+          render::silhouette_backward(f, fm, view.camera, adj.data(), gpos.data());
+          if (!gsmooth.empty()) st.smoothness += render::smoothness_gradient(fm, view.camera, gsmooth.data()) * per_view;
+        }
+        for (std::size_t k = 0; k < gsmooth.size(); ++k) gpos[k] += w.smoothness * per_view * gsmooth[k];
+        st.render_seconds = seconds_since(tr);
+
+        // regularizers recorded on the same tape
+        if (!mask_only) {
+          if (w.bce != 0.0f) {
+            terms.push_back(sdf_sign_change_bce_loss<V>(grid_, in.sdf, reader));
+            term_weights.push_back(w.bce);
+          }
+          if (w.area != 0.0f) {
+            terms.push_back(mean_face_area(mesh.vertices, mesh.triangles));
+            term_weights.push_back(w.area);
+          }
+          if (w.dev != 0.0f) {
+            terms.push_back(flexicubes_dev_loss<V>(grid_, in, reader, mesh, fo));
+            term_weights.push_back(w.dev);
+          }
+          const bool edge_smooth = smooth_phase && config_.smoothness == Stage1Smoothness::edge_normal;
+          if (edge_smooth || (late && w.developability != 0.0f)) {
+            const MeshAdjacency adjm = mesh_adjacency(mesh.triangles, std::int32_t(mesh.vertices.size()));
+            if (edge_smooth) {
+              terms.push_back(edge_normal_loss(mesh.vertices, mesh.triangles, adjm, Reduction::mean));
+              term_weights.push_back(w.smoothness);
+            }
+            if (late && w.developability != 0.0f) {
+              terms.push_back(developability_loss(mesh.vertices, mesh.triangles, adjm));
+              term_weights.push_back(w.developability);
+            }
+          }
+        }
+      }
+      if (tape_->overflowed() || reader.overflowed()) {
+        if (tape_->overflowed()) {
+          tape_capacity_ = grow(tape_capacity_, tape_->size());
+          tape_.reset();
+        }
+        if (reader.overflowed()) log_capacity_ = grow(log_capacity_, log_capacity_);
+        if (attempt < 8) {
+          st = Stage1Stats{};
+          st.iteration = it;
+          st.phase = phase(it);
+          st.lr = optim::exponential_lr(config_.lr, it, config_.lr_decay);
+          continue;
+        }
+        throw std::runtime_error("Stage1FlexiCubes: the tape keeps overflowing");
+      }
+      st.tape_nodes = tape_->size();
+
+      const auto tb = clock::now();
+      tape_->zero_adjoints();
+      for (std::size_t v = 0; v < mesh.vertices.size(); ++v)
+        for (int c = 0; c < 3; ++c) tape_->seed(mesh.vertices[v][c], gpos[3 * v + std::size_t(c)]);
+      for (std::size_t k = 0; k < terms.size(); ++k) tape_->seed(terms[k], term_weights[k]);
+      tape_->propagate();
+      reader.scatter();
+      // values of the terms, for the record
+      std::size_t k = 0;
+      if (!mask_only && !mesh.triangles.empty()) {
+        if (w.bce != 0.0f) st.bce = terms[k++].value;
+        if (w.area != 0.0f) st.area = terms[k++].value;
+        if (w.dev != 0.0f) st.dev = terms[k++].value;
+        if (smooth_phase && config_.smoothness == Stage1Smoothness::edge_normal) st.smoothness = terms[k++].value;
+        if (late && w.developability != 0.0f) st.developability = terms[k++].value;
+      }
+      st.backward_seconds = seconds_since(tb);
+      break;
+    }
+
+    // tape-free terms
+    const auto tb = clock::now();
+    if (dilation_phase && w.dilation != 0.0f) {
+      std::vector<float> gd(std::size_t(size_[buf_sdf]), 0.0f);
+      ad::ParamSet dset;
+      dset.buffers[buf_sdf].gradient = gd.data();
+      st.dilation = sdf_dilation_backward(grid_, in.sdf, dset, w.dilation);
+      const std::vector<std::uint8_t> band = near_surface(config_.dilation_band);
+      float* g = grad_.data() + offset_[buf_sdf];
+      for (std::size_t v = 0; v < gd.size(); ++v)
+        if (band[v]) g[v] += gd[v];
+    }
+    if (!mask_only && w.weight_l1 != 0.0f) st.weight_l1 = flexicubes_weight_l1_backward(in, set, w.weight_l1);
+    adam_.step(params_.data(), grad_.data(), st.lr);
+    keep_border_outside();
+    st.backward_seconds += seconds_since(tb);
+
+    st.loss = w.mask * st.mask + w.dilation * st.dilation + w.smoothness * st.smoothness + w.bce * st.bce +
+              w.area * st.area + w.dev * st.dev + w.developability * st.developability + w.weight_l1 * st.weight_l1;
+    history_.push_back(st.loss);
+    mask_history_.push_back(st.mask);
+    ++iteration_;
+    st.seconds = seconds_since(t0);
+    return st;
+  }
+
+  // Checkpoint: the grid, the unknowns, Adam's moments, the iteration and the
+  // loss history. Written to a temporary file, then renamed over `path`.
+  void save(const std::filesystem::path& path) const {
+    const std::filesystem::path tmp = path.string() + ".tmp";
+    {
+      std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+      if (!f) throw std::runtime_error(path.string() + ": cannot write the checkpoint");
+      f.write("DTS1FC01", 8);
+      detail::s1_write(f, std::int32_t(grid_.res));
+      for (int a = 0; a < 3; ++a) detail::s1_write(f, grid_.lo[a]);
+      for (int a = 0; a < 3; ++a) detail::s1_write(f, grid_.hi[a]);
+      detail::s1_write(f, std::int32_t(iteration_));
+      detail::s1_write(f, std::int32_t(adam_.steps()));
+      detail::s1_write_vec(f, params_);
+      detail::s1_write_vec(f, adam_.first_moment());
+      detail::s1_write_vec(f, adam_.second_moment());
+      detail::s1_write_vec(f, history_);
+      detail::s1_write_vec(f, mask_history_);
+      if (!f) throw std::runtime_error(path.string() + ": writing the checkpoint failed");
+    }
+    std::filesystem::rename(tmp, path);
+  }
+
+  // Resumes from a checkpoint written by save() for the same grid (resolution
+  // and box); returns false, changing nothing, when the file is absent,
+  // unreadable or for another grid.
+  bool load(const std::filesystem::path& path) {
+    std::ifstream f(path, std::ios::binary);
+    if (!f) return false;
+    char magic[8];
+    if (!f.read(magic, 8) || std::memcmp(magic, "DTS1FC01", 8) != 0) return false;
+    std::int32_t res = 0, it = 0, steps = 0;
+    Vec3f lo, hi;
+    if (!detail::s1_read(f, res)) return false;
+    for (int a = 0; a < 3; ++a) detail::s1_read(f, lo[a]);
+    for (int a = 0; a < 3; ++a) detail::s1_read(f, hi[a]);
+    if (res != grid_.res || lo != grid_.lo || hi != grid_.hi) return false;
+    std::vector<float> p, g1, g2;
+    std::vector<double> h, mh;
+    const std::uint64_t n = params_.size();
+    if (!detail::s1_read(f, it) || !detail::s1_read(f, steps) || !detail::s1_read_vec(f, p, n) || p.size() != n ||
+        !detail::s1_read_vec(f, g1, n) || g1.size() != n || !detail::s1_read_vec(f, g2, n) || g2.size() != n ||
+        !detail::s1_read_vec(f, h, 1u << 24) || !detail::s1_read_vec(f, mh, 1u << 24) || it < 0)
+      return false;
+    params_ = std::move(p);
+    adam_.restore(g1, g2, steps);
+    iteration_ = it;
+    history_ = std::move(h);
+    mask_history_ = std::move(mh);
+    return true;
+  }
+
+ private:
+  static double seconds_since(std::chrono::steady_clock::time_point t) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+  }
+  static std::int32_t grow(std::int32_t capacity, std::int32_t used) {
+    const std::int64_t want = std::max<std::int64_t>(2 * std::int64_t(capacity), 2 * std::int64_t(used));
+    return std::int32_t(std::min<std::int64_t>(want, 1ll << 30));
+  }
+
+  // Grid vertices within `cells` (Chebyshev distance) of a vertex on a sign-changing edge.
+  std::vector<std::uint8_t> near_surface(float cells) const {
+    const int R = grid_.res, V = R + 1;
+    const float* s = sdf();
+    std::vector<std::uint8_t> on(std::size_t(grid_.num_vertices()), 0);
+    for (int k = 0; k < V; ++k)
+      for (int j = 0; j < V; ++j)
+        for (int i = 0; i < V; ++i) {
+          const std::int32_t a = grid_.vertex_index(i, j, k);
+          const bool in_a = s[a] < 0.0f;
+          if (i < R && (s[a + 1] < 0.0f) != in_a) on[std::size_t(a)] = on[std::size_t(a + 1)] = 1;
+          if (j < R && (s[a + V] < 0.0f) != in_a) on[std::size_t(a)] = on[std::size_t(a + V)] = 1;
+          if (k < R && (s[a + V * V] < 0.0f) != in_a) on[std::size_t(a)] = on[std::size_t(a + V * V)] = 1;
+        }
+    // dilate by separable max filters along the three axes
+    const int r = std::max(0, int(std::ceil(cells)));
+    std::vector<std::uint8_t> tmp(on.size());
+    const std::int32_t step[3] = {1, V, V * V};
+    for (int axis = 0; axis < 3; ++axis) {
+      for (int k = 0; k < V; ++k)
+        for (int j = 0; j < V; ++j)
+          for (int i = 0; i < V; ++i) {
+            const int x[3] = {i, j, k};
+            const std::int32_t a = grid_.vertex_index(i, j, k);
+            std::uint8_t m = 0;
+            for (int d = -r; d <= r && !m; ++d) {
+              const int y = x[axis] + d;
+              if (y >= 0 && y < V) m = on[std::size_t(a + d * step[axis])];
+            }
+            tmp[std::size_t(a)] = m;
+          }
+      on.swap(tmp);
+    }
+    return on;
+  }
+
+  // Grid vertices on the box's faces stay outside (s > 0): the extraction
+  // makes no faces there, so a negative border value would open the mesh.
+  void keep_border_outside() {
+    const int R = grid_.res, V = R + 1;
+    float* s = sdf();
+    const float eps = 1e-3f * glm::length(grid_.cell());
+    for (int k = 0; k < V; ++k)
+      for (int j = 0; j < V; ++j)
+        for (int i = 0; i < V; ++i)
+          if (i == 0 || j == 0 || k == 0 || i == R || j == R || k == R) {
+            float& v = s[grid_.vertex_index(i, j, k)];
+            v = std::max(v, eps);
+          }
+  }
+
+  Stage1Config config_;
+  FlexiCubesGrid grid_;
+  std::int64_t offset_[5] = {0}, size_[5] = {0};
+  std::vector<float> params_, grad_;
+  detail::Stage1Adam adam_;
+  int iteration_ = 0;
+  std::vector<double> history_, mask_history_;
+  std::unique_ptr<ad::Tape<float>> tape_;
+  std::int32_t tape_capacity_ = 1 << 20;
+  std::vector<ad::LeafRecord> log_;
+  std::int32_t log_capacity_ = 1 << 18;
+};
+
+// Mean mask L1 of a float mesh over all the views (0 for no views).
+inline double stage1_mask_error(const std::vector<float>& positions, const std::vector<std::int32_t>& triangles,
+                                const std::vector<Stage1View>& views) {
+  if (views.empty()) return 0.0;
+  const scene::TriangleMesh m(positions, triangles);
+  const render::TriangleNeighbors nb = render::TriangleNeighbors::build(m);
+  double sum = 0.0;
+  for (const Stage1View& v : views) sum += render::mask_l1(render::silhouette_mask<float>(m, v.camera, &nb), v.target.data());
+  return sum / double(views.size());
+}
+
+// ------------------------------------------------------------------ refinement
+
+struct Stage1RefineStats {
+  int iteration = 0;
+  double loss = 0.0, mask = 0.0, edge_normal = 0.0;
+  double seconds = 0.0;
+};
+
+struct Stage1RefineResult {
+  std::vector<float> positions;
+  std::vector<std::int32_t> triangles;
+  std::vector<double> loss, mask;  // per refinement iteration
+  float target_length = 0.0f;
+  RemeshStats remesh_stats;
+  bool remeshed = false;           // false when the input was not a manifold the remesher accepts
+  double remesh_seconds = 0.0, refine_seconds = 0.0;
+};
+
+// Mask L1 (a batch of views) + edge-normal smoothness of a float mesh, and
+// the gradient w.r.t. its positions (3 per vertex) written to `grad`.
+inline Stage1RefineStats stage1_refine_loss(const scene::TriangleMesh& m, const render::TriangleNeighbors& nb,
+                                            const MeshAdjacency& adj, const std::vector<Stage1View>& views,
+                                            const std::vector<int>& picked, float edge_weight, std::vector<float>& grad) {
+  Stage1RefineStats st;
+  grad.assign(m.positions.size(), 0.0f);
+  const float per_view = 1.0f / float(std::max<std::size_t>(1, picked.size()));
+  for (int vi : picked) {
+    const Stage1View& view = views[std::size_t(vi)];
+    const render::SilhouetteFrame f = render::prepare_silhouette(m, nb, view.camera);
+    const std::vector<float> mask = render::antialiased_mask<float>(f, m, view.camera);
+    std::vector<float> adjoint(mask.size());
+    st.mask += render::mask_l1(mask, view.target.data(), adjoint.data()) * per_view;
+    for (float& a : adjoint) a *= per_view;
+    render::silhouette_backward(f, m, view.camera, adjoint.data(), grad.data());
+  }
+  if (edge_weight != 0.0f) {
+    using V = ad::Var<float>;
+    const std::int32_t nv = m.num_vertices();
+    ad::Tape<float> tape(std::int32_t(std::min<std::int64_t>(1ll << 30, 64 * std::int64_t(m.num_triangles()) + 16 * nv + 1024)));
+    std::vector<Vec3<V>> x(static_cast<std::size_t>(nv));
+    for (std::int32_t v = 0; v < nv; ++v)
+      for (int c = 0; c < 3; ++c) x[std::size_t(v)][c] = tape.variable(m.positions[std::size_t(3 * v + c)]);
+    const V e = edge_normal_loss(x, m.triangles, adj, Reduction::mean);
+    if (!tape.overflowed()) {
+      tape.backward(e);
+      for (std::int32_t v = 0; v < nv; ++v)
+        for (int c = 0; c < 3; ++c) grad[std::size_t(3 * v + c)] += edge_weight * tape.adjoint(x[std::size_t(v)][c]);
+      st.edge_normal = e.value;
+    }
+  }
+  st.loss = st.mask + edge_weight * st.edge_normal;
+  return st;
+}
+
+// Remesh to the target edge length, then refine the vertex positions with the
+// large-steps optimizer (u = (I + λL) x, AdamUniform on u) for
+// config.refine_iterations iterations. `on_step` (optional) sees each iteration.
+inline Stage1RefineResult stage1_refine(const std::vector<float>& positions, const std::vector<std::int32_t>& triangles,
+                                        const std::vector<Stage1View>& views, const Stage1Config& config,
+                                        const std::function<void(const Stage1RefineStats&)>& on_step = {}) {
+  using clock = std::chrono::steady_clock;
+  Stage1RefineResult out;
+  const auto t0 = clock::now();
+  RemeshOptions ro;
+  const Vec3f size = config.box_hi - config.box_lo;
+  ro.target_length = config.remesh_edge_length > 0.0f
+                         ? config.remesh_edge_length
+                         : std::max(size.x, std::max(size.y, size.z)) / float(std::max(2, config.grid_resolution));
+  ro.iterations = config.remesh_iterations;
+  RemeshResult rr = remesh(positions, triangles, ro);
+  out.target_length = ro.target_length;
+  if (rr.report.ok() && !rr.triangles.empty()) {
+    out.positions = std::move(rr.positions);
+    out.triangles = std::move(rr.triangles);
+    out.remesh_stats = rr.stats;
+    out.remeshed = true;
+  } else {
+    out.positions = positions;
+    out.triangles = triangles;
+  }
+  out.remesh_seconds = std::chrono::duration<double>(clock::now() - t0).count();
+  if (out.triangles.empty() || config.refine_iterations <= 0 || views.empty()) return out;
+
+  const auto t1 = clock::now();
+  scene::TriangleMesh m(out.positions, out.triangles);
+  const render::TriangleNeighbors nb = render::TriangleNeighbors::build(m);
+  const MeshAdjacency adj = mesh_adjacency(m.triangles, m.num_vertices());
+  optim::AdamOptions ao;
+  ao.lr = config.refine_lr;
+  optim::LargeStepsOptimizer opt(config.refine_lambda, ao);
+  opt.reset(m.positions, m.triangles);
+  std::vector<float> grad;
+  for (int it = 0; it < config.refine_iterations; ++it) {
+    const auto ts = clock::now();
+    std::vector<int> all(views.size());
+    std::iota(all.begin(), all.end(), 0);
+    std::mt19937_64 rng(config.seed * 0xD1B54A32D192ED03ull + std::uint64_t(it));
+    std::shuffle(all.begin(), all.end(), rng);
+    all.resize(std::min<std::size_t>(all.size(), std::size_t(std::max(1, config.refine_views_per_iteration))));
+    Stage1RefineStats st = stage1_refine_loss(m, nb, adj, views, all, config.refine_edge_normal, grad);
+    opt.step(m.positions, grad, config.refine_lr);
+    st.iteration = it;
+    st.seconds = std::chrono::duration<double>(clock::now() - ts).count();
+    out.loss.push_back(st.loss);
+    out.mask.push_back(st.mask);
+    if (on_step) on_step(st);
+  }
+  out.positions = m.positions;
+  out.refine_seconds = std::chrono::duration<double>(clock::now() - t1).count();
+  return out;
+}
+
+// ------------------------------------------------------------------ topology of the result
+
+struct MeshGenus {
+  std::int32_t vertices = 0, edges = 0, faces = 0;  // vertices: those used by some face
+  std::int32_t components = 0;
+  std::int64_t euler = 0;                            // V − E + F
+  std::int64_t genus = 0;                            // (2 C − χ) / 2: the total genus of closed components
+  bool closed = true;                                // every edge shared by exactly two faces
+};
+
+inline MeshGenus mesh_genus(const std::vector<std::int32_t>& triangles, std::int32_t num_vertices) {
+  MeshGenus g;
+  const MeshAdjacency adj = mesh_adjacency(triangles, num_vertices);
+  std::vector<std::int32_t> parent(static_cast<std::size_t>(num_vertices));
+  std::iota(parent.begin(), parent.end(), 0);
+  const auto find = [&](std::int32_t v) {
+    while (parent[std::size_t(v)] != v) v = parent[std::size_t(v)] = parent[std::size_t(parent[std::size_t(v)])];
+    return v;
+  };
+  std::vector<std::uint8_t> used(static_cast<std::size_t>(num_vertices), 0);
+  for (std::size_t f = 0; f + 2 < triangles.size(); f += 3)
+    for (int k = 0; k < 3; ++k) {
+      used[std::size_t(triangles[f + std::size_t(k)])] = 1;
+      const std::int32_t a = find(triangles[f + std::size_t(k)]), b = find(triangles[f + std::size_t((k + 1) % 3)]);
+      if (a != b) parent[std::size_t(a)] = b;
+    }
+  for (std::int32_t v = 0; v < num_vertices; ++v)
+    if (used[std::size_t(v)]) {
+      ++g.vertices;
+      if (find(v) == v) ++g.components;
+    }
+  g.edges = adj.num_edges();
+  g.faces = std::int32_t(triangles.size() / 3);
+  for (std::int32_t e = 0; e < adj.num_edges(); ++e)
+    if (adj.edge_faces[std::size_t(2 * e + 1)] < 0) g.closed = false;
+  g.euler = std::int64_t(g.vertices) - g.edges + g.faces;
+  g.genus = (2 * std::int64_t(g.components) - g.euler) / 2;
+  return g;
+}
+
+// Drops the connected components with fewer than `min_fraction` of the
+// largest component's triangles (floaters, bubbles the masks cannot see) and
+// the vertices no triangle uses. Returns the number of components dropped.
+inline int drop_small_components(std::vector<float>& positions, std::vector<std::int32_t>& triangles,
+                                 float min_fraction = 0.05f) {
+  const std::int32_t nv = std::int32_t(positions.size() / 3);
+  std::vector<std::int32_t> parent(static_cast<std::size_t>(nv));
+  std::iota(parent.begin(), parent.end(), 0);
+  const auto find = [&](std::int32_t v) {
+    while (parent[std::size_t(v)] != v) v = parent[std::size_t(v)] = parent[std::size_t(parent[std::size_t(v)])];
+    return v;
+  };
+  for (std::size_t f = 0; f + 2 < triangles.size(); f += 3)
+    for (int k = 0; k < 2; ++k) {
+      const std::int32_t a = find(triangles[f + std::size_t(k)]), b = find(triangles[f + std::size_t(k) + 1]);
+      if (a != b) parent[std::size_t(a)] = b;
+    }
+  std::vector<std::int64_t> count(static_cast<std::size_t>(nv), 0);
+  for (std::size_t f = 0; f + 2 < triangles.size(); f += 3) ++count[std::size_t(find(triangles[f]))];
+  const std::int64_t largest = count.empty() ? 0 : *std::max_element(count.begin(), count.end());
+  int dropped = 0;
+  for (std::int32_t v = 0; v < nv; ++v)
+    if (find(v) == v && count[std::size_t(v)] > 0 && double(count[std::size_t(v)]) < double(min_fraction) * double(largest))
+      ++dropped;
+  std::vector<std::int32_t> remap(static_cast<std::size_t>(nv), -1), kept;
+  std::vector<float> pos;
+  for (std::size_t f = 0; f + 2 < triangles.size(); f += 3) {
+    if (double(count[std::size_t(find(triangles[f]))]) < double(min_fraction) * double(largest)) continue;
+    for (int k = 0; k < 3; ++k) {
+      const std::int32_t v = triangles[f + std::size_t(k)];
+      if (remap[std::size_t(v)] < 0) {
+        remap[std::size_t(v)] = std::int32_t(pos.size() / 3);
+        pos.insert(pos.end(), positions.begin() + 3 * std::ptrdiff_t(v), positions.begin() + 3 * std::ptrdiff_t(v) + 3);
+      }
+      kept.push_back(remap[std::size_t(v)]);
+    }
+  }
+  positions.swap(pos);
+  triangles.swap(kept);
+  return dropped;
+}
+
+}  // namespace difftrans::geometry
