@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "support/ad_check.hpp"
+#include "support/flexicubes_grid.hpp"
 #include "support/shapes.hpp"
 
 namespace {
@@ -164,46 +165,8 @@ bool all_finite_values(const std::vector<double>& g) {
 
 // ------------------------------------------------------------------ grids
 
-struct GridData {
-  FlexiCubesGrid grid;
-  std::vector<float> sdf, deform, alpha, beta, gamma;
+using dt_test::GridData;
 
-  explicit GridData(int res, Vec3f lo = Vec3f(-1.0f), Vec3f hi = Vec3f(1.0f)) {
-    grid.res = res;
-    grid.lo = lo;
-    grid.hi = hi;
-    sdf.assign(std::size_t(grid.num_vertices()), 1.0f);
-  }
-  void fill(const std::function<float(Vec3f)>& f) {
-    const int V = grid.res + 1;
-    for (int k = 0; k < V; ++k)
-      for (int j = 0; j < V; ++j)
-        for (int i = 0; i < V; ++i) sdf[std::size_t(grid.vertex_index(i, j, k))] = f(grid.vertex_position(i, j, k));
-  }
-  void randomize_unknowns(std::mt19937& rng, float deform_scale, float weight_scale) {
-    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-    deform.resize(3 * sdf.size());
-    alpha.resize(8 * std::size_t(grid.num_cubes()));
-    beta.resize(12 * std::size_t(grid.num_cubes()));
-    gamma.resize(std::size_t(grid.num_cubes()));
-    for (float& x : deform) x = deform_scale * u(rng);
-    for (auto* v : {&alpha, &beta, &gamma})
-      for (float& x : *v) x = weight_scale * u(rng);
-  }
-  // buffer ids 0..4 when differentiable (and not empty), else constants
-  FlexiCubesInputs inputs(bool differentiable = false) const {
-    auto src = [&](const std::vector<float>& v, int id) {
-      return scene::ParamSource{v.empty() ? nullptr : v.data(), std::int32_t(v.size()),
-                                differentiable && !v.empty() ? id : -1};
-    };
-    return FlexiCubesInputs{src(sdf, 0), src(deform, 1), src(alpha, 2), src(beta, 3), src(gamma, 4)};
-  }
-  std::vector<float>* buffer(int b) {
-    std::vector<float>* all[5] = {&sdf, &deform, &alpha, &beta, &gamma};
-    return all[b];
-  }
-  const std::vector<float>* buffer(int b) const { return const_cast<GridData*>(this)->buffer(b); }
-};
 
 // Every grid term, as one function of the unknowns (the scalar S, a reader).
 enum class GridTerm { dilation, bce, weight_l1, dev };

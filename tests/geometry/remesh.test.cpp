@@ -23,23 +23,6 @@ namespace {
 
 vec3 vertex(const std::vector<float>& p, std::int32_t i) { return vec3(p[3 * i], p[3 * i + 1], p[3 * i + 2]); }
 
-dt_test::Shape torus(int n, int m, float R, float r) {
-  dt_test::Shape s;
-  const double pi = 3.14159265358979323846;
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < m; ++j) {
-      const double u = 2 * pi * i / n, v = 2 * pi * j / m;
-      s.positions.push_back(float((R + r * std::cos(v)) * std::cos(u)));
-      s.positions.push_back(float((R + r * std::cos(v)) * std::sin(u)));
-      s.positions.push_back(float(r * std::sin(v)));
-    }
-  const auto id = [&](int i, int j) { return ((i + n) % n) * m + (j + m) % m; };
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < m; ++j)
-      for (int k : {id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j), id(i + 1, j + 1), id(i, j + 1)})
-        s.triangles.push_back(k);
-  return s;
-}
 
 // A box of half extents (hx, hy, hz) whose every face is an n × n grid of
 // cells, two triangles each: with unequal extents, long thin triangles.
@@ -280,7 +263,7 @@ TEST_CASE("remeshing badly shaped meshes") {
 }
 
 TEST_CASE("remeshing a torus keeps genus 1") {
-  const dt_test::Shape t = torus(48, 6, 1.0f, 0.3f);  // coarse around the tube, fine around the ring
+  const dt_test::Shape t = dt_test::make_torus(48, 6, 1.0f, 0.3f);  // coarse around the tube, fine around the ring
   const RemeshResult r = check_remesh(t, 0.08f, 0.4, "torus");
   CHECK(closed_manifold_euler(r.positions, r.triangles) == 0);
 }

@@ -75,6 +75,27 @@ inline Shape make_icosphere(float radius, int levels) {
   return s;
 }
 
+// A torus about the z axis of n × m quads (two triangles each), major radius
+// R, minor r; genus 1, outward counter-clockwise.
+inline Shape make_torus(int n, int m, float R = 1.0f, float r = 0.35f) {
+  Shape s;
+  const double pi = 3.14159265358979323846;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < m; ++j) {
+      const double u = 2 * pi * i / n, v = 2 * pi * j / m;
+      s.positions.push_back(float((R + r * std::cos(v)) * std::cos(u)));
+      s.positions.push_back(float((R + r * std::cos(v)) * std::sin(u)));
+      s.positions.push_back(float(r * std::sin(v)));
+    }
+  const auto id = [&](int i, int j) { return ((i + n) % n) * m + (j + m) % m; };
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < m; ++j) {
+      const int a = id(i, j), b = id(i + 1, j), c = id(i + 1, j + 1), d = id(i, j + 1);
+      for (int k : {a, b, c, a, c, d}) s.triangles.push_back(k);
+    }
+  return s;
+}
+
 // A smooth, varied w x h equirectangular environment (RGB texels) for tests
 // whose gradients should see the look-up direction.
 inline std::vector<float> smooth_sky(int w, int h) {
