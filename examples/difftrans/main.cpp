@@ -11,7 +11,8 @@
   X(relight)                  \
   X(reconstruct)              \
   X(evaluate)                 \
-  X(info)
+  X(info)                     \
+  X(shape)
 
 namespace difftrans::cli {
 #define DIFFTRANS_DECLARE(name) void add_##name(CLI::App& app);

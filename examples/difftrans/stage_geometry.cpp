@@ -165,6 +165,10 @@ void add_geometry_options(CLI::App* cmd, GeometryStageOptions& opt) {
       ->capture_default_str();
   cmd->add_option("--init", opt.init, "Geometry: initial SDF: hull (visual hull of the masks) or sphere (the paper's)")
       ->capture_default_str();
+  cmd->add_option("--carve-margin", opt.carve_margin,
+                  "Geometry: keep outside every grid vertex a view sees on background farther than this many pixels "
+                  "from the mask (-1: no carving)")
+      ->capture_default_str();
   cmd->add_option("--checkpoint-every", opt.checkpoint_every, "Geometry: iterations between checkpoints")->capture_default_str();
   cmd->add_option("--metric-samples", opt.metric_samples, "Geometry: points per mesh for CD / F1")->capture_default_str();
   cmd->add_flag("--restart", opt.restart, "Geometry: ignore the checkpoint and finished meshes in --out");
@@ -198,6 +202,7 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
   cfg.refine_views_per_iteration = opt.refine_views;
   cfg.lr = opt.lr;
   cfg.adam_eps = opt.adam_eps;
+  cfg.carve_margin = opt.carve_margin;
   {
     std::stringstream ss(opt.weights);
     for (std::string item; std::getline(ss, item, ',');) {
@@ -237,8 +242,14 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
   if (opt.init != "hull" && opt.init != "sphere")
     throw std::runtime_error("--init: '" + opt.init + "' is not one of hull, sphere");
   if (scene.settings.aabb && !scene.settings.aabb->empty()) {
-    cfg.box_lo = Vec3f(scene.settings.aabb->lo);
-    cfg.box_hi = Vec3f(scene.settings.aabb->hi);
+    // a cube around scene.json's box: FlexiCubes cells stay cubes, so the
+    // learning rate (in world units) means the same number of cells on every
+    // axis (a flat box's thin axis would otherwise get cells several times
+    // smaller than a step, and its surface would fall apart into foam)
+    const Vec3f lo(scene.settings.aabb->lo), hi(scene.settings.aabb->hi), c = 0.5f * (lo + hi);
+    const float half = 0.5f * std::max(hi.x - lo.x, std::max(hi.y - lo.y, hi.z - lo.z));
+    cfg.box_lo = c - Vec3f(half);
+    cfg.box_hi = c + Vec3f(half);
   } else {
     dg::stage1_unit_box(cfg, opt.margin);
   }
@@ -253,6 +264,7 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
   j["views_per_iteration"] = cfg.views_per_iteration;
   j["smoothness"] = opt.smoothness;
   j["init"] = opt.init;
+  j["carve_margin"] = cfg.carve_margin;
   j["adam_eps"] = cfg.adam_eps;
   j["weights"] = {{"mask", cfg.weights.mask},           {"dilation", cfg.weights.dilation}, {"smoothness", cfg.weights.smoothness},
                   {"bce", cfg.weights.bce},             {"area", cfg.weights.area},         {"dev", cfg.weights.dev},
@@ -279,11 +291,14 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
         warn("geometry: " + ckpt_path.string() + " is for another grid or unreadable; starting afresh");
     }
     if (!resumed && opt.init == "hull") fc.init_visual_hull(views);
+    fc.set_carving(views);
+    j["carved_grid_vertices"] = fc.carved_vertices();
     j["resumed_at"] = fc.iteration();
     progress("geometry: FlexiCubes " + std::to_string(cfg.grid_resolution) + "^3 over " + std::to_string(views.size()) +
              " views, " + std::to_string(cfg.iterations) + " iterations, " + std::to_string(cfg.views_per_iteration) +
              " views per iteration");
     auto last_print = clock_type::now(), last_save = clock_type::now();
+    io::Json genus_history = io::Json::array();
     double sum_it = 0.0;
     int counted = 0;
     while (!fc.done()) {
@@ -303,9 +318,23 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
           seconds_since(last_save) > 60.0) {
         fc.save(ckpt_path);
         last_save = clock_type::now();
+        // the topology as it evolves (the largest component's genus is what the refinement keeps)
+        const dg::FlexiCubesMesh<float> now = fc.extract(dg::QuadSplit::two_triangles);
+        std::vector<float> p;
+        for (const Vec3f& v : now.vertices) p.insert(p.end(), {v.x, v.y, v.z});
+        std::vector<std::int32_t> t = now.triangles;
+        const dg::MeshGenus all = dg::mesh_genus(t, std::int32_t(p.size() / 3));
+        dg::drop_small_components(p, t);
+        const dg::MeshGenus kept = dg::mesh_genus(t, std::int32_t(p.size() / 3));
+        genus_history.push_back({{"iteration", fc.iteration()}, {"components", all.components}, {"genus", all.genus},
+                                 {"genus_after_dropping", kept.genus}});
+        progress("geometry: checkpoint at it " + std::to_string(fc.iteration()) + ": " + std::to_string(all.components) +
+                 " component(s), genus " + std::to_string(all.genus) + " (" + std::to_string(kept.genus) +
+                 " without small components)");
       }
     }
     mean_iteration = counted ? sum_it / counted : 0.0;
+    j["genus_history"] = genus_history;
     fc_loss = fc.loss_history();
     fc_mask = fc.mask_history();
     const dg::FlexiCubesMesh<float> mesh = fc.extract(dg::QuadSplit::two_triangles);

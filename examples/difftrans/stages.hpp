@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <filesystem>
 #include <string>
 
@@ -11,6 +12,29 @@
 #include "difftrans/io/dataset.hpp"
 
 namespace difftrans::cli {
+
+// The environment from the background pixels: stage_environment.cpp.
+struct EnvironmentStageOptions {
+  std::string model = "auto";     // auto (scene.json's "environment", else distant) | distant | near
+  int margin = 2;                 // pixels around the mask left out
+  // distant: equirectangular map
+  int env_width = 0;              // 0: from the images' angular resolution (capped at env_max_width)
+  int env_max_width = 512;
+  double smoothness = 1e-3;
+  // near: radiance field (scene/radiance_field_fit.hpp)
+  std::string field_resolutions = "32,64,128";  // grid vertices per axis, one level each
+  std::string field_iterations = "300,300,400"; // per level
+  int field_batch = 4096;
+  float field_extent = 1.4f;      // box half-size / the farthest training camera's distance from the object's centre
+  float field_lr = 0.1f;
+  float field_tv = 1e-6f;         // smoothness prior weight (density and colour)
+  std::uint64_t field_seed = 1;
+};
+
+void add_environment_options(CLI::App* cmd, EnvironmentStageOptions& opt);
+
+// Fits the environment to the training views' background pixels, writing into `out`; returns the stage's JSON record.
+io::Json environment_stage(const io::Scene& scene, const std::filesystem::path& out, const EnvironmentStageOptions& opt);
 
 // Stage 1 (geometry from masks): stage_geometry.cpp.
 struct GeometryStageOptions {
@@ -25,6 +49,7 @@ struct GeometryStageOptions {
   float margin = 0.1f;           // around the unit box when scene.json has no aabb
   std::string smoothness = "screen";  // screen | edge | none
   std::string init = "hull";     // hull (the masks' visual hull) | sphere (the paper's start)
+  int carve_margin = 1;          // carving (Stage1Config::carve_margin): background pixels eroded by this many; < 0: off
   int checkpoint_every = 50;     // iterations between checkpoints (and at most 60 s apart)
   int sheet_views = 4;           // rows of the silhouette comparison strip
   std::size_t metric_samples = 200000;

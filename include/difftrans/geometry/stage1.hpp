@@ -79,6 +79,12 @@ struct Stage1Config {
   int views_per_iteration = 8;   // the batch of training views per iteration
   Stage1Smoothness smoothness = Stage1Smoothness::screen_space;
   float dilation_band = 0.0f;    // dilation acts on grid vertices within this many cells of a sign change (see below)
+  // Carving (not in the paper): a grid vertex that some view sees on a
+  // background pixel whose neighbours within `carve_margin` pixels are also
+  // background lies outside the object, whatever the losses say; after every
+  // step its SDF is kept positive. Holes the masks see through then stay open
+  // under dilation, and nothing grows where a mask says empty. < 0: off.
+  int carve_margin = 1;
   Stage1Weights weights;
   std::uint64_t seed = 1;        // the views of iteration i are drawn from seed + i (reproducible across resume)
   // refinement
@@ -217,23 +223,8 @@ class Stage1FlexiCubes {
     const int R = grid_.res, V = R + 1;
     const float h = 0.5f * glm::length(grid_.cell());
     float* s = sdf();
-    for (int k = 0; k < V; ++k)
-      for (int j = 0; j < V; ++j)
-        for (int i = 0; i < V; ++i) {
-          const Vec3f p = grid_.vertex_position(i, j, k);
-          bool inside = true;
-          for (const Stage1View& v : views) {
-            const scene::Projection<float> q = v.camera.project(p);
-            if (!q.valid) continue;
-            const int x = int(std::floor(q.pixel.x)), y = int(std::floor(q.pixel.y));
-            if (x < 0 || y < 0 || x >= v.camera.width || y >= v.camera.height) continue;
-            if (v.target[std::size_t(y) * std::size_t(v.camera.width) + std::size_t(x)] < 0.5f) {
-              inside = false;
-              break;
-            }
-          }
-          s[grid_.vertex_index(i, j, k)] = inside ? -h : h;
-        }
+    const std::vector<std::uint8_t> outside = outside_masks(views, 0);
+    for (std::int32_t a = 0; a < grid_.num_vertices(); ++a) s[a] = outside[std::size_t(a)] ? h : -h;
     {  // breadth-first layers from the vertices on sign-changing edges
       const std::int32_t nv = grid_.num_vertices();
       std::vector<std::int32_t> layer(static_cast<std::size_t>(nv), -1), queue;
@@ -296,6 +287,59 @@ class Stage1FlexiCubes {
     iteration_ = 0;
     history_.clear();
     mask_history_.clear();
+  }
+
+  // Grid vertices that some view sees on a background pixel whose
+  // neighbours within `margin` pixels (Chebyshev) are background too; a view
+  // that does not see the vertex (behind it, outside the image) says nothing.
+  std::vector<std::uint8_t> outside_masks(const std::vector<Stage1View>& views, int margin) const {
+    const std::int32_t nv = grid_.num_vertices();
+    std::vector<std::uint8_t> out(static_cast<std::size_t>(nv), 0);
+    const int V = grid_.res + 1;
+    for (const Stage1View& v : views) {
+      const int W = v.camera.width, H = v.camera.height;
+      // background eroded by `margin`: separable min filters of (target < 0.5)
+      std::vector<std::uint8_t> bg(std::size_t(W) * std::size_t(H)), tmp(bg.size());
+      for (std::size_t p = 0; p < bg.size(); ++p) bg[p] = v.target[p] < 0.5f;
+      if (margin > 0) {
+        for (int y = 0; y < H; ++y)
+          for (int x = 0; x < W; ++x) {
+            std::uint8_t m = 1;
+            for (int d = -margin; d <= margin && m; ++d) m = bg[std::size_t(y) * W + std::size_t(std::clamp(x + d, 0, W - 1))];
+            tmp[std::size_t(y) * W + std::size_t(x)] = m;
+          }
+        for (int y = 0; y < H; ++y)
+          for (int x = 0; x < W; ++x) {
+            std::uint8_t m = 1;
+            for (int d = -margin; d <= margin && m; ++d) m = tmp[std::size_t(std::clamp(y + d, 0, H - 1)) * W + std::size_t(x)];
+            bg[std::size_t(y) * W + std::size_t(x)] = m;
+          }
+      }
+      for (int k = 0; k < V; ++k)
+        for (int j = 0; j < V; ++j)
+          for (int i = 0; i < V; ++i) {
+            const std::int32_t a = grid_.vertex_index(i, j, k);
+            if (out[std::size_t(a)]) continue;
+            const scene::Projection<float> q = v.camera.project(grid_.vertex_position(i, j, k));
+            if (!q.valid) continue;
+            const int x = int(std::floor(q.pixel.x)), y = int(std::floor(q.pixel.y));
+            if (x < 0 || y < 0 || x >= W || y >= H) continue;
+            if (bg[std::size_t(y) * std::size_t(W) + std::size_t(x)]) out[std::size_t(a)] = 1;
+          }
+    }
+    return out;
+  }
+
+  // Turns carving on for these views (config().carve_margin >= 0) and
+  // applies it; call after construction, init or load.
+  void set_carving(const std::vector<Stage1View>& views) {
+    carved_.clear();
+    if (config_.carve_margin >= 0) carved_ = outside_masks(views, config_.carve_margin);
+    keep_border_outside();
+  }
+  // How many grid vertices carving holds outside (0 when off).
+  std::int64_t carved_vertices() const {
+    return std::int64_t(std::count(carved_.begin(), carved_.end(), std::uint8_t(1)));
   }
 
   const FlexiCubesGrid& grid() const { return grid_; }
@@ -600,6 +644,7 @@ class Stage1FlexiCubes {
 
   // Grid vertices on the box's faces stay outside (s > 0): the extraction
   // makes no faces there, so a negative border value would open the mesh.
+  // So do the carved vertices (set_carving).
   void keep_border_outside() {
     const int R = grid_.res, V = R + 1;
     float* s = sdf();
@@ -611,12 +656,15 @@ class Stage1FlexiCubes {
             float& v = s[grid_.vertex_index(i, j, k)];
             v = std::max(v, eps);
           }
+    for (std::size_t a = 0; a < carved_.size(); ++a)
+      if (carved_[a]) s[a] = std::max(s[a], eps);
   }
 
   Stage1Config config_;
   FlexiCubesGrid grid_;
   std::int64_t offset_[5] = {0}, size_[5] = {0};
   std::vector<float> params_, grad_;
+  std::vector<std::uint8_t> carved_;  // grid vertices held outside (set_carving)
   detail::Stage1Adam adam_;
   int iteration_ = 0;
   std::vector<double> history_, mask_history_;

@@ -1,0 +1,86 @@
+// Procedural shapes of known topology: the voxel boundary is closed,
+// consistently oriented and of the stated genus; its volume is the voxel count.
+#include "difftrans/geometry/procedural.hpp"
+
+#include <doctest/doctest.h>
+
+#include <map>
+#include <utility>
+
+#include "difftrans/geometry/stage1.hpp"
+
+namespace dg = difftrans::geometry;
+
+namespace {
+
+// Every directed edge once and its reverse once: closed and consistently oriented.
+bool closed_and_oriented(const dg::ProceduralMesh& m) {
+  std::map<std::pair<int, int>, int> directed;
+  for (std::size_t f = 0; f + 2 < m.triangles.size(); f += 3)
+    for (int k = 0; k < 3; ++k) ++directed[{m.triangles[f + k], m.triangles[f + (k + 1) % 3]}];
+  for (const auto& [e, n] : directed) {
+    if (n != 1) return false;
+    const auto r = directed.find({e.second, e.first});
+    if (r == directed.end() || r->second != 1) return false;
+  }
+  return true;
+}
+
+double signed_volume(const dg::ProceduralMesh& m) {
+  double v = 0.0;
+  for (std::size_t f = 0; f + 2 < m.triangles.size(); f += 3) {
+    const float* a = &m.positions[3 * std::size_t(m.triangles[f])];
+    const float* b = &m.positions[3 * std::size_t(m.triangles[f + 1])];
+    const float* c = &m.positions[3 * std::size_t(m.triangles[f + 2])];
+    v += (double(a[0]) * (double(b[1]) * c[2] - double(b[2]) * c[1]) - double(a[1]) * (double(b[0]) * c[2] - double(b[2]) * c[0]) +
+          double(a[2]) * (double(b[0]) * c[1] - double(b[1]) * c[0])) / 6.0;
+  }
+  return v;
+}
+
+}  // namespace
+
+TEST_CASE("block_with_holes: closed, oriented outward, genus N, volume = voxels") {
+  for (int holes : {0, 1, 2, 5, 9}) {
+    CAPTURE(holes);
+    const dg::VoxelShape v = dg::block_with_holes(holes);
+    CHECK(dg::voxel_shape_is_manifold(v));
+    const dg::ProceduralMesh m = dg::voxel_boundary(v);
+    CHECK(closed_and_oriented(m));
+    const dg::MeshGenus g = dg::mesh_genus(m.triangles, std::int32_t(m.positions.size() / 3));
+    CHECK(g.closed);
+    CHECK(g.components == 1);
+    CHECK(g.genus == holes);
+    int voxels = 0;
+    for (auto o : v.occupied) voxels += o;
+    CHECK(signed_volume(m) == doctest::Approx(voxels));
+  }
+  // other proportions
+  const dg::ProceduralMesh thick = dg::voxel_boundary(dg::block_with_holes(3, 3, 2, 4));
+  CHECK(dg::mesh_genus(thick.triangles, std::int32_t(thick.positions.size() / 3)).genus == 3);
+  CHECK_THROWS_AS(dg::block_with_holes(2, 0), std::invalid_argument);
+}
+
+TEST_CASE("voxel shapes: edge and corner contacts are reported as non-manifold") {
+  dg::VoxelShape v;
+  v.nx = v.ny = v.nz = 2;
+  v.occupied.assign(8, 0);
+  v.occupied[0] = v.occupied[3] = 1;  // (0,0,0) and (1,1,0): an edge contact
+  CHECK_FALSE(dg::voxel_shape_is_manifold(v));
+  v.occupied.assign(8, 0);
+  v.occupied[0] = v.occupied[7] = 1;  // opposite corners
+  CHECK_FALSE(dg::voxel_shape_is_manifold(v));
+  v.occupied[1] = 1;                 // (1,0,0) joins them through faces... and the edge (1,0,0)-(1,1,1) still only an edge
+  CHECK_FALSE(dg::voxel_shape_is_manifold(v));
+  v.occupied[5] = 1;                 // (1,0,1): now 0-1-5-7 is face-connected, no bare contacts left
+  CHECK(dg::voxel_shape_is_manifold(v));
+  v.occupied.assign(8, 1);
+  CHECK(dg::voxel_shape_is_manifold(v));
+}
+
+TEST_CASE("procedural_shape by name") {
+  const dg::ProceduralMesh m = dg::procedural_shape("holes-4");
+  CHECK(dg::mesh_genus(m.triangles, std::int32_t(m.positions.size() / 3)).genus == 4);
+  CHECK_THROWS_WITH_AS(dg::procedural_shape("holes-"), doctest::Contains("'holes-'"), std::invalid_argument);
+  CHECK_THROWS_WITH_AS(dg::procedural_shape("donut"), doctest::Contains("'donut'"), std::invalid_argument);
+}
