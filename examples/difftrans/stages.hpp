@@ -27,7 +27,8 @@ struct EnvironmentStageOptions {
   int field_batch = 4096;
   float field_extent = 1.4f;      // box half-size / the farthest training camera's distance from the object's centre
   float field_lr = 0.1f;
-  float field_tv = 1e-6f;         // smoothness prior weight (density and colour)
+  float field_tv = 1e-9f;         // smoothness prior weight (density and colour)
+  float field_sparsity = 1e-6f;   // density sparsity prior weight
   std::uint64_t field_seed = 1;
 };
 
@@ -49,7 +50,7 @@ struct GeometryStageOptions {
   float margin = 0.1f;           // around the unit box when scene.json has no aabb
   std::string smoothness = "screen";  // screen | edge | none
   std::string init = "hull";     // hull (the masks' visual hull) | sphere (the paper's start)
-  int carve_margin = 1;          // carving (Stage1Config::carve_margin): background pixels eroded by this many; < 0: off
+  int carve_margin = 0;          // carving (Stage1Config::carve_margin): background pixels eroded by this many; < 0: off
   int checkpoint_every = 50;     // iterations between checkpoints (and at most 60 s apart)
   int sheet_views = 4;           // rows of the silhouette comparison strip
   std::size_t metric_samples = 200000;
