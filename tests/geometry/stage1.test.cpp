@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <unistd.h>
 #include <string>
 #include <vector>
 
@@ -227,7 +228,9 @@ TEST_CASE("stage 1 checkpoints resume to the same state") {
   const dt_test::Shape sphere = dt_test::make_icosphere(0.3f, 2);
   const std::vector<dg::Stage1View> views = render_views(sphere, spread_directions(6), 32);
   dg::Stage1Config cfg = tiny_config(12, 12);
-  const std::filesystem::path file = std::filesystem::temp_directory_path() / "difftrans_stage1_checkpoint_test.bin";
+  // (one file per process: concurrent runs of this test must not share it)
+  const std::filesystem::path file =
+      std::filesystem::temp_directory_path() / ("difftrans_stage1_checkpoint_test_" + std::to_string(::getpid()) + ".bin");
 
   dg::Stage1FlexiCubes a(cfg);
   for (int i = 0; i < 6; ++i) a.step(views);
@@ -243,7 +246,13 @@ TEST_CASE("stage 1 checkpoints resume to the same state") {
   double diff = 0.0;
   for (std::size_t k = 0; k < a.parameters().size(); ++k)
     diff = std::max(diff, double(std::fabs(a.parameters()[k] - b.parameters()[k])));
-  CHECK(diff < 1e-5);
+  // Bit-exact with one thread (CTest runs this file with DIFFTRANS_THREADS=1):
+  // with more, the silhouette gradients' atomic adds land in varying order
+  // and two straight runs differ by rounding too.
+  if (difftrans::ThreadPool::global().size() == 1)
+    CHECK(diff == 0.0);
+  else
+    CHECK(diff < 1e-4);
 
   // another grid refuses the file and keeps its own state
   dg::Stage1Config other = cfg;
