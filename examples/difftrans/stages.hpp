@@ -22,8 +22,8 @@ struct EnvironmentStageOptions {
   int env_max_width = 512;
   double smoothness = 1e-3;
   // near: radiance field (scene/radiance_field_fit.hpp)
-  std::string field_resolutions = "32,64,128";  // grid vertices per axis, one level each
-  std::string field_iterations = "300,300,400"; // per level
+  std::string field_resolutions = "32,64";      // grid vertices per axis, one level each (a 128 level overfits 50 views)
+  std::string field_iterations = "300,300";     // per level
   int field_batch = 4096;
   float field_extent = 1.4f;      // box half-size / the farthest training camera's distance from the object's centre
   float field_lr = 0.1f;

@@ -16,6 +16,8 @@ struct SynthOptions {
   std::uint64_t seed = 0;
   std::string out;
   bool overwrite = false;
+  bool room = false;        // the object inside a textured box room (a near-field environment)
+  double room_size = 8.0;   // the room's edge length, centred on the object
 };
 
 // Everything a synthetic scene is made of, after presets and overrides.
@@ -28,6 +30,8 @@ struct SynthSpec {
   int resolution = 256, train_views = 100, test_views = 20, max_depth = 16, spp_axis = 4;
   std::uint64_t seed = 0;
   std::string variant;
+  bool room = false;
+  double room_size = 8.0;
 };
 
 SynthSpec resolve(const SynthOptions& o) {
@@ -48,8 +52,8 @@ SynthSpec resolve(const SynthOptions& o) {
     s.max_depth = v.max_depth;
     s.spp_axis = v.samples_per_axis;
   } else {
-    if (o.mesh.empty() || !o.ior || o.env.empty())
-      throw CLI::ValidationError("without --preset, give --mesh, --ior and --env");
+    if (o.mesh.empty() || !o.ior || (o.env.empty() && !o.room))
+      throw CLI::ValidationError("without --preset, give --mesh, --ior and --env (or --room)");
     const io::Variant v = io::find_variant(o.variant);
     s.variant = v.name;
     s.resolution = v.resolution;
@@ -86,7 +90,42 @@ SynthSpec resolve(const SynthOptions& o) {
   if (o.max_depth) s.max_depth = *o.max_depth;
   if (o.spp_axis) s.spp_axis = *o.spp_axis;
   s.seed = o.seed;
+  s.room = o.room;
+  s.room_size = o.room_size;
+  if (s.room && !o.env.empty()) throw CLI::ValidationError("--room and --env exclude each other");
+  if (s.room && !(o.room_size > 2.0 * double(scene::protocol_camera_radius)))
+    throw CLI::ValidationError("--room-size", "must exceed " + std::to_string(2.0 * scene::protocol_camera_radius) +
+                                                  " so that the cameras (radius " +
+                                                  std::to_string(scene::protocol_camera_radius) + ") lie inside the room");
   return s;
+}
+
+// The room seen from its centre (the object's), as an equirectangular map
+// (PROTOCOL.md convention), 4 × 4 samples per texel.
+io::Image room_panorama(const scene::Room& room, int width = 512) {
+  const int height = width / 2, n = 4;
+  io::Image im(width, height);
+  for (int r = 0; r < height; ++r)
+    for (int c = 0; c < width; ++c) {
+      Vec3f sum(0.0f);
+      for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+          const float u = (float(c) + (float(i) + 0.5f) / n) / float(width);
+          const float v = (float(r) + (float(j) + 0.5f) / n) / float(height);
+          sum += room.radiance(room.centre, scene::uv_to_direction(u, v));
+        }
+      im.set(c, r, sum / float(n * n));
+    }
+  return im;
+}
+
+io::Json describe_room(const scene::Room& room) {
+  return io::Json{{"type", "box room"},
+                  {"centre", {room.centre.x, room.centre.y, room.centre.z}},
+                  {"half_size", room.half},
+                  {"panel_radiance", {room.panel_radiance.x, room.panel_radiance.y, room.panel_radiance.z}},
+                  {"ceiling_radiance", {room.ceiling_radiance.x, room.ceiling_radiance.y, room.ceiling_radiance.z}},
+                  {"walls", "see include/difftrans/scene/room.hpp"}};
 }
 
 io::Json describe(const SynthSpec& s, const Environment& env) {
@@ -94,8 +133,13 @@ io::Json describe(const SynthSpec& s, const Environment& env) {
   j["preset"] = s.id;
   j["variant"] = s.variant;
   j["source_mesh"] = s.mesh.string();
-  j["environment"] = env.file.empty() ? env.spec : env.file.filename().string();
-  j["environment_source"] = env.spec;
+  if (s.room) {
+    j["environment"] = "room";
+    j["room_size"] = s.room_size;
+  } else {
+    j["environment"] = env.file.empty() ? env.spec : env.file.filename().string();
+    j["environment_source"] = env.spec;
+  }
   j["ior"] = s.material.ior;
   j["absorption"] = io::to_string(s.material.absorption);
   j["views"] = {{"train", s.train_views}, {"test", s.test_views}, {"placement", io::to_string(s.sphere)},
@@ -119,21 +163,27 @@ void run(const SynthOptions& o) {
   // read every input before anything is written
   io::Mesh mesh = load_mesh(s.mesh);
   io::normalize_to_unit_box(mesh);
-  const Environment env = load_environment(s.env_spec);
+  const Environment env = s.room ? Environment{} : load_environment(s.env_spec);
+  scene::Room room;
+  room.half = float(s.room_size / 2.0);
 
   OutputDir out(o.out, o.overwrite, {s.mesh, env.file, o.absorption_grid});
   const fs::path dir = out.path();
   fs::create_directories(dir / "gt");
   io::write_mesh(dir / "gt" / "mesh.obj", mesh);
   io::write_material(dir / "gt" / "material.json", s.material);
-  if (!env.file.empty() && io::detail::lower_extension(env.file) == ".hdr")
+  if (s.room)
+    io::write_image(dir / "gt" / "envmap.hdr", room_panorama(room));
+  else if (!env.file.empty() && io::detail::lower_extension(env.file) == ".hdr")
     fs::copy_file(env.file, dir / "gt" / "envmap.hdr");
   else
     io::write_image(dir / "gt" / "envmap.hdr", environment_image(env));
   io::write_json(dir / "gt" / "synth.json", describe(s, env));
+  if (s.room) io::write_json(dir / "gt" / "room.json", describe_room(room));
 
   render::HostScene scene = render::make_host_scene(mesh, s.material, s.mesh.filename().string());
-  apply_environment(scene, env);
+  if (!s.room) apply_environment(scene, env);
+  const scene::Room* room_env = s.room ? &room : nullptr;
   const render::PassOptions options = render::reference_pass_options(s.max_depth, s.spp_axis);
 
   const io::ViewOffsets offsets = io::view_offsets(s.seed);
@@ -147,10 +197,10 @@ void run(const SynthOptions& o) {
     }
     return views;
   };
-  const auto train = render_views(scene, make_views("train", s.train_views, offsets.train), options, dir, true, "synth train");
+  const auto train = render_views(scene, make_views("train", s.train_views, offsets.train), options, dir, true, "synth train", room_env);
   io::write_transforms(dir / "transforms_train.json", split_of(train));
   if (s.test_views > 0) {
-    const auto test = render_views(scene, make_views("test", s.test_views, offsets.test), options, dir, true, "synth test");
+    const auto test = render_views(scene, make_views("test", s.test_views, offsets.test), options, dir, true, "synth test", room_env);
     io::write_transforms(dir / "transforms_test.json", split_of(test));
   }
   io::SceneSettings settings;
@@ -159,7 +209,7 @@ void run(const SynthOptions& o) {
   box.lo -= Vec3d(margin);
   box.hi += Vec3d(margin);
   settings.aabb = box;
-  settings.environment = io::EnvironmentKind::distant;
+  settings.environment = s.room ? io::EnvironmentKind::near : io::EnvironmentKind::distant;
   io::write_scene_settings(dir / "scene.json", settings);
   out.commit();
   progress("synth: wrote " + out.final_path().string());
@@ -178,6 +228,9 @@ void add_synth(CLI::App& app) {
       "spp-axis^2 stratified samples; masks: the ray through the pixel centre hits the object.\n"
       "Writes images/NAME.exr (linear), previews/NAME.png, masks/NAME.png, transforms_train.json,\n"
       "transforms_test.json, scene.json and gt/ (mesh.obj normalized, material.json, envmap.hdr, synth.json).\n"
+      "--room: the object inside a textured box room (--room-size across, centred on it; walls with\n"
+      "different checker and stripe patterns, two emissive panels) instead of a distant map; scene.json says\n"
+      "\"environment\": \"near\", gt/envmap.hdr is the room seen from the object's centre, gt/room.json the room.\n"
       "Example: difftrans synth --preset horse-green --variant quick --out scenes/horse-green-quick");
   cmd->add_option("--preset", o->preset, "benchmark scene")
       ->check(CLI::IsMember({"spot-clear", "bunny-clear", "horse-green", "monkey-bands"}));
@@ -200,6 +253,9 @@ void add_synth(CLI::App& app) {
   cmd->add_option("--max-depth", o->max_depth, "surface interactions per path (reference: 16)")
       ->check(CLI::Range(1, render::max_trace_depth));
   cmd->add_option("--spp-axis", o->spp_axis, "n: n x n stratified samples per pixel (reference: 4)")->check(CLI::Range(1, 64));
+  cmd->add_flag("--room", o->room, "place the object in a textured box room (near-field environment) instead of --env");
+  cmd->add_option("--room-size", o->room_size, "edge length of the room (--room)")->capture_default_str()
+      ->check(CLI::Range(0.0, 1000.0));
   cmd->add_option("--data", o->data, "shared data folder with meshes/ and envmaps/ (default: $DIFFTRANS_DATA or " +
                                          std::string(DIFFTRANS_DEFAULT_DATA_DIR) + ")");
   cmd->callback([o] { run(*o); });

@@ -19,6 +19,7 @@
 #include "difftrans/io/mesh_file.hpp"
 #include "difftrans/metrics/image.hpp"
 #include "difftrans/render/views.hpp"
+#include "difftrans/scene/room.hpp"
 
 #ifndef DIFFTRANS_DEFAULT_DATA_DIR
 #define DIFFTRANS_DEFAULT_DATA_DIR "../shared/data"
@@ -213,9 +214,10 @@ struct Rendered {
 
 // Renders every view; writes DIR/images/NAME.exr, DIR/previews/NAME.png and
 // (write_masks) DIR/masks/NAME.png, filling each view's frame paths.
+// A room (synth --room), when given, is what rays leaving the object see.
 inline std::vector<Rendered> render_views(const render::HostScene& s, std::vector<View> views,
                                           const render::PassOptions& options, const fs::path& dir, bool write_masks,
-                                          const std::string& label) {
+                                          const std::string& label, const scene::Room* room = nullptr) {
   fs::create_directories(dir / "images");
   fs::create_directories(dir / "previews");
   if (write_masks) fs::create_directories(dir / "masks");
@@ -227,7 +229,8 @@ inline std::vector<Rendered> render_views(const render::HostScene& s, std::vecto
     Rendered r;
     r.view = std::move(views[i]);
     render::PassStats st;
-    r.image = render::render_view(s, r.view.camera, options, &st);
+    r.image = room ? render::render_view_with(s, r.view.camera, options, render::fixed_escape(*room), &st)
+                   : render::render_view(s, r.view.camera, options, &st);
     rays += st.rays;
     segments += st.trace.segments;
     r.mask = render::object_mask(s, r.view.camera);

@@ -8,6 +8,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <stdexcept>
 #include <vector>
 
 #include "difftrans/accel/bvh.hpp"
@@ -91,6 +92,8 @@ class DeviceScene {
 
  private:
   void upload(const render::HostScene& s) {
+    if (s.near_field)
+      throw std::invalid_argument("device scene: a near-field environment (radiance field) is traced on the host only");
     host_ = &s;
     positions_ = detail::upload_vector(s.mesh.positions);
     triangles_ = detail::upload_vector(s.mesh.triangles);

@@ -1,11 +1,13 @@
 // Background pixels of a scene directory as environment observations: the
 // ray through each pixel centre that the object's mask leaves out (minus a
 // margin around the mask), with the pixel's radiance; and the comparison of
-// a fitted environment with held-out background pixels.
+// a fitted environment with held-out background pixels. The environment is
+// a distant map (EnvMap) or any radiance(origin, direction) (a near field).
 #pragma once
 
 #include <vector>
 
+#include "difftrans/core/parallel.hpp"
 #include "difftrans/io/dataset.hpp"
 #include "difftrans/metrics/image.hpp"
 #include "difftrans/render/views.hpp"
@@ -71,33 +73,50 @@ inline std::vector<scene::EnvObservation> background_observations(const io::Spli
       for (int x = 0; x < f.image.width; x += stride) {
         if (!bg.at(x, y)) continue;
         const scene::Ray r = cam.generate_ray(x, y);
-        obs.push_back({r.direction, f.image.at(x, y), 1.0f});
+        obs.push_back({r.direction, f.image.at(x, y), 1.0f, r.origin});
       }
   }
   return obs;
 }
 
-// The background pixels of a frame as the environment would show them
-// (object pixels are copied from the image so that only background differs).
-inline io::Image environment_view(const io::Frame& f, const scene::EnvMap& env) {
+// The background pixels of a frame as a near-field environment would show
+// them: radiance(origin, direction) -> Vec3f along each pixel-centre ray, rows
+// on the thread pool (object pixels are copied from the image so that only
+// background differs).
+template <class Radiance>
+io::Image environment_view_with(const io::Frame& f, const Radiance& radiance) {
   const scene::Camera cam = camera_of(f);
-  ad::ParamReader<float> reader(nullptr);
   io::Image out = f.image;
   const io::Mask bg = background_mask(f, 0);
-  for (int y = 0; y < out.height; ++y)
-    for (int x = 0; x < out.width; ++x)
-      if (bg.at(x, y)) out.set(x, y, scene::lookup(reader, env, cam.generate_ray(x, y).direction));
+  parallel_for(out.height, 1, [&](std::int64_t y0, std::int64_t y1, int) {
+    for (int y = int(y0); y < int(y1); ++y)
+      for (int x = 0; x < out.width; ++x)
+        if (bg.at(x, y)) {
+          const scene::Ray r = cam.generate_ray(x, y);
+          out.set(x, y, radiance(r.origin, r.direction));
+        }
+  });
   return out;
 }
 
+// The same for a distant map.
+inline io::Image environment_view(const io::Frame& f, const scene::EnvMap& env) {
+  return environment_view_with(f, [&](const Vec3f&, const Vec3f& d) {
+    ad::ParamReader<float> reader(nullptr);
+    return scene::lookup(reader, env, d);
+  });
+}
+
 // PSNR (PROTOCOL tone mapping) of the environment against the background
-// pixels of held-out frames, over all their background pixels together.
-inline double background_psnr(const io::Split& split, const scene::EnvMap& env, int margin = 2) {
+// pixels of held-out frames, over all their background pixels together;
+// radiance(origin, direction) as for environment_view_with.
+template <class Radiance>
+double background_psnr_with(const io::Split& split, const Radiance& radiance, int margin = 2) {
   double se = 0;
   std::int64_t n = 0;
   for (const io::Frame& f : split.frames) {
     if (f.image.width == 0 || (!f.environment_only && f.mask.width == 0)) continue;
-    const io::Image pred = environment_view(f, env);
+    const io::Image pred = environment_view_with(f, radiance);
     const io::Mask bg = background_mask(f, margin);
     const auto a = io::tone_map(pred), b = io::tone_map(f.image);
     for (int y = 0; y < f.image.height; ++y)
@@ -112,6 +131,16 @@ inline double background_psnr(const io::Split& split, const scene::EnvMap& env, 
       }
   }
   return n ? metrics::detail::psnr_from_mse(se / double(n)) : 0.0;
+}
+
+inline double background_psnr(const io::Split& split, const scene::EnvMap& env, int margin = 2) {
+  return background_psnr_with(
+      split,
+      [&](const Vec3f&, const Vec3f& d) {
+        ad::ParamReader<float> reader(nullptr);
+        return scene::lookup(reader, env, d);
+      },
+      margin);
 }
 
 }  // namespace difftrans::render

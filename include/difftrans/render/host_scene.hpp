@@ -12,6 +12,7 @@
 #include "difftrans/accel/embree.hpp"
 #include "difftrans/ad/params.hpp"
 #include "difftrans/render/tracer.hpp"
+#include "difftrans/scene/radiance_field.hpp"
 
 namespace difftrans::render {
 
@@ -37,6 +38,11 @@ class HostScene {
   // environment: a constant colour (3 values) or width x height RGB texels
   std::vector<float> environment{1.0f, 1.0f, 1.0f};
   int environment_width = 0, environment_height = 0;  // 0: constant
+  // A near-field environment: when set, rays that leave the object read this
+  // radiance field at their origin and direction instead of the distant map
+  // (the host passes choose the escape once per pass). It is held fixed: no
+  // gradients flow into it (see render::FixedEscape). Host passes only.
+  std::shared_ptr<const scene::RadianceField> near_field;
   // which unknowns carry derivatives (read through the reader) in AD passes
   bool differentiate[param_count] = {true, true, true, true, true};
   // Vertex normals as leaves of their own whose gradient is folded into the
@@ -84,7 +90,17 @@ class HostScene {
     environment_height = height;
   }
 
+  void set_near_field(std::shared_ptr<const scene::RadianceField> field) { near_field = std::move(field); }
+
   const accel::EmbreeScene& accel() const { return *accel_; }
+
+  // Calls f(escape) with the escape the tracer should use for this scene:
+  // FixedEscape over the near field when one is set, else DistantEscape.
+  template <class F>
+  void with_escape(F&& f) const {
+    if (near_field) f(fixed_escape(scene::FieldRadiance{near_field->view()}));
+    else f(DistantEscape{});
+  }
 
   // The view for the generic tracer. ad = true: the unknowns marked in
   // `differentiate` are read through the pass's reader. reverse = true (a

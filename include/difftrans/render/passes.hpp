@@ -6,6 +6,9 @@
 //   render_derivative  forward mode: the image and its derivative along one
 //                      direction in parameter space (Dual<float, 1>).
 // Pixel values are box-filtered over n×n stratified sub-pixel positions.
+// Rays that leave the object read the scene's escape (HostScene::with_escape:
+// its near field when set, else the distant map); render_image_with takes an
+// explicit escape (e.g. synth's procedural room).
 #pragma once
 
 #include <cmath>
@@ -74,16 +77,16 @@ namespace detail {
 
 // A forward pass (plain or Dual): every sample of every pixel traced with
 // scalar S; accumulate(pixel, radiance, weight) adds it to the caller's images.
-template <class S, class Accumulate>
+template <class S, class Escape, class Accumulate>
 void forward_pass(const HostScene& s, const SceneView& view, const ad::ParamSet& params, const scene::Camera& cam,
-                  const PassOptions& opt, PassStats* stats, Accumulate&& accumulate) {
+                  const PassOptions& opt, PassStats* stats, const Escape& escape, Accumulate&& accumulate) {
   ThreadPool& pool = ThreadPool::global();
   StatsPerWorker st(pool.size());
   pool.parallel_for(std::int64_t(cam.width) * cam.height, 64, [&](std::int64_t b, std::int64_t e, int w) {
     ad::ParamReader<S> reader(&params);
     PassStats& ps = st.per[std::size_t(w)];
     for_each_sample(cam, opt.samples_per_axis, b, e, [&](std::int64_t pix, Vec3f o, Vec3f d, float wt) {
-      accumulate(std::size_t(pix) * 3, trace<S>(view, s.accel(), reader, o, d, opt.trace, &ps.trace), wt);
+      accumulate(std::size_t(pix) * 3, trace<S>(view, s.accel(), reader, o, d, opt.trace, &ps.trace, escape), wt);
       ++ps.rays;
     });
   });
@@ -94,14 +97,23 @@ void forward_pass(const HostScene& s, const SceneView& view, const ad::ParamSet&
 
 // Linear RGB radiance, width·height·3 values, row 0 at the top; traced in
 // precision T (float, or double for references).
-template <class T = float>
-std::vector<T> render_image(const HostScene& s, const scene::Camera& cam, const PassOptions& opt = {},
-                            PassStats* stats = nullptr) {
+// render_image_with: escaping rays read `escape` (render/tracer.hpp).
+template <class T = float, class Escape>
+std::vector<T> render_image_with(const HostScene& s, const scene::Camera& cam, const PassOptions& opt,
+                                 const Escape& escape, PassStats* stats = nullptr) {
   std::vector<T> image(std::size_t(cam.width) * cam.height * 3, T(0));
-  detail::forward_pass<T>(s, s.view(false), s.params(), cam, opt, stats,
+  detail::forward_pass<T>(s, s.view(false), s.params(), cam, opt, stats, escape,
                           [&](std::size_t i, const Vec3<T>& L, float wt) {
                             for (int c = 0; c < 3; ++c) image[i + c] += wt * L[c];
                           });
+  return image;
+}
+
+template <class T = float>
+std::vector<T> render_image(const HostScene& s, const scene::Camera& cam, const PassOptions& opt = {},
+                            PassStats* stats = nullptr) {
+  std::vector<T> image;
+  s.with_escape([&](const auto& escape) { image = render_image_with<T>(s, cam, opt, escape, stats); });
   return image;
 }
 
@@ -132,7 +144,8 @@ std::vector<float> render_gradient(const HostScene& s, const scene::Camera& cam,
     detail::for_each_sample(cam, opt.samples_per_axis, b, e, [&](std::int64_t pix, Vec3f o, Vec3f d, float wt) {
       tape->reset();
       reader.clear();
-      const Vec3<V> L = trace<V>(view, s.accel(), reader, o, d, opt.trace, &ps.trace);
+      Vec3<V> L;
+      s.with_escape([&](const auto& escape) { L = trace<V>(view, s.accel(), reader, o, d, opt.trace, &ps.trace, escape); });
       ++ps.rays;
       ps.tape_nodes += tape->size();
       ps.max_tape_nodes = tape->size() > ps.max_tape_nodes ? tape->size() : ps.max_tape_nodes;
@@ -169,11 +182,14 @@ inline ImageDerivative render_derivative(const HostScene& s, const scene::Camera
   out.derivative.assign(out.value.size(), 0.0f);
   ad::ParamSet params = s.params();
   for (int b = 0; b < param_count; ++b) params.buffers[b].tangents[0] = direction[b];
-  detail::forward_pass<D>(s, s.view(true), params, cam, opt, stats, [&](std::size_t i, const Vec3<D>& L, float wt) {
-    for (int c = 0; c < 3; ++c) {
-      out.value[i + c] += wt * L[c].value;
-      out.derivative[i + c] += wt * L[c].grad[0];
-    }
+  s.with_escape([&](const auto& escape) {
+    detail::forward_pass<D>(s, s.view(true), params, cam, opt, stats, escape,
+                            [&](std::size_t i, const Vec3<D>& L, float wt) {
+                              for (int c = 0; c < 3; ++c) {
+                                out.value[i + c] += wt * L[c].value;
+                                out.derivative[i + c] += wt * L[c].grad[0];
+                              }
+                            });
   });
   return out;
 }

@@ -6,6 +6,9 @@
 // rays that leave read the environment. The BVH answers in float which
 // triangle is hit; the hit is re-evaluated on that triangle in S, so radiance
 // carries derivatives to vertices, IoR, absorption and environment texels.
+// Where an escaping ray's radiance comes from is a template parameter (the
+// "escape" below): the distant map of the SceneView by default, or a
+// near-field environment read from the ray's origin and direction.
 #pragma once
 
 #include <cstdint>
@@ -89,12 +92,49 @@ DT_HOST_DEVICE double mean_component(const Vec3<S>& v) {
 
 }  // namespace detail
 
+// Escapes: what a ray that leaves the object sees. An escape is a callable
+//   Vec3<S> escape(Reader& reader, const SceneView& scene, const Vec3<S>& origin, const Vec3<S>& direction)
+// called once per escaping branch; `direction` is unit.
+
+// The distant environment of the scene (direction only); differentiable in
+// its texels (through the reader) and in the direction.
+struct DistantEscape {
+  template <class S, class Reader>
+  DT_HOST_DEVICE Vec3<S> operator()(Reader& reader, const SceneView& scene, const Vec3<S>&, const Vec3<S>& d) const {
+    return scene::lookup(reader, scene.environment, d);
+  }
+};
+
+// A fixed near-field environment: radiance(origin, direction) -> Vec3f on
+// float values (a radiance field, a procedural room). It is a constant of the
+// pass: no derivatives flow into it, nor to the ray that reads it (stage 2
+// holds the environment fixed; the origin's and direction's derivatives stop
+// here, which is exact for the environment's unknowns and leaves out only
+// the second-order effect of the ray's own motion on what it sees).
+template <class Radiance>
+struct FixedEscape {
+  Radiance radiance;
+  template <class S, class Reader>
+  DT_HOST_DEVICE Vec3<S> operator()(Reader&, const SceneView&, const Vec3<S>& o, const Vec3<S>& d) const {
+    const Vec3<ad::scalar_t<S>> ov = value_of(o), dv = value_of(d);
+    const Vec3f L = radiance(Vec3f(float(ov.x), float(ov.y), float(ov.z)), Vec3f(float(dv.x), float(dv.y), float(dv.z)));
+    return Vec3<S>(S(L.x), S(L.y), S(L.z));
+  }
+};
+
+template <class Radiance>
+DT_HOST_DEVICE FixedEscape<Radiance> fixed_escape(const Radiance& r) {
+  return FixedEscape<Radiance>{r};
+}
+
 // Radiance (RGB) arriving at the camera along the ray (origin, direction).
 // Accel: anything with `accel::RayHit intersect(Vec3f o, Vec3f d, float tnear,
 // float tfar) const`. Reader: the pass's parameter reader (ad/params.hpp).
-template <class S, class Accel, class Reader>
+// Escape: see above (default: the scene's distant environment).
+template <class S, class Accel, class Reader, class Escape = DistantEscape>
 DT_HOST_DEVICE Vec3<S> trace(const SceneView& scene, const Accel& accel, Reader& reader, const Vec3f& origin,
-                             const Vec3f& direction, const TraceSettings& settings, TraceStats* stats = nullptr) {
+                             const Vec3f& direction, const TraceSettings& settings, TraceStats* stats = nullptr,
+                             const Escape& escape = Escape{}) {
   using T = ad::scalar_t<S>;
   TraceStats local;
   const int max_depth = settings.max_depth < max_trace_depth ? settings.max_depth : max_trace_depth;
@@ -112,7 +152,7 @@ DT_HOST_DEVICE Vec3<S> trace(const SceneView& scene, const Accel& accel, Reader&
     ++local.segments;
     const auto h = accel.intersect(o, d, 0.0f, 3.4e38f);
     if (!h.hit()) {
-      radiance += b.weight * scene::lookup(reader, scene.environment, b.direction);
+      radiance += b.weight * escape(reader, scene, b.origin, b.direction);
       continue;
     }
     ++local.hits;

@@ -65,6 +65,16 @@ inline io::Image render_view(const HostScene& s, const scene::Camera& camera, co
   return image;
 }
 
+// The same with an explicit escape for rays that leave the object (e.g. a
+// procedural room: render::fixed_escape(scene::Room{...})).
+template <class Escape>
+io::Image render_view_with(const HostScene& s, const scene::Camera& camera, const PassOptions& options,
+                           const Escape& escape, PassStats* stats = nullptr) {
+  io::Image image(camera.width, camera.height);
+  image.rgb = render_image_with<float>(s, camera, options, escape, stats);
+  return image;
+}
+
 // The object mask: inside where the ray through the pixel's centre hits the mesh.
 inline io::Mask object_mask(const HostScene& s, const scene::Camera& camera) {
   io::Mask mask(camera.width, camera.height);

@@ -23,6 +23,7 @@ struct EnvObservation {
   Vec3f direction;  // away from the scene (need not be unit)
   Vec3f radiance;   // linear RGB
   float weight = 1.0f;
+  Vec3f origin{0.0f};  // where the ray starts (the camera): near-field fits use it, the distant fit does not
 };
 
 struct EnvFitOptions {

@@ -1,0 +1,289 @@
+// difftrans reconstruct --stages environment: the environment from the
+// background (out-of-mask) pixels of the training views. Two models, chosen by
+// scene.json's "environment" (absent: distant) or forced with --env-model:
+//   distant  an equirectangular map, sparse least squares (scene/envmap_fit.hpp);
+//   near     a radiance field (density + colour voxel grid) trained by volume
+//            rendering (scene/radiance_field_fit.hpp), for backgrounds at
+//            finite distance where parallax matters.
+// Both write DIR/envmap.hdr (for the field: its panorama seen from the
+// object's centre), DIR/environment_comparison.png (image | re-rendered
+// background | error) and their record in reconstruct.json.
+#include <chrono>
+#include <sstream>
+#include <sys/resource.h>
+
+#include "command.hpp"
+#include "stages.hpp"
+#include "views.hpp"
+
+#include "difftrans/io/contact_sheet.hpp"
+#include "difftrans/io/hdr.hpp"
+#include "difftrans/io/png.hpp"
+#include "difftrans/io/radiance_field.hpp"
+#include "difftrans/render/background.hpp"
+#include "difftrans/scene/radiance_field_fit.hpp"
+
+namespace difftrans::cli {
+namespace {
+
+using clock_type = std::chrono::steady_clock;
+
+std::string fixed(double v, int digits) {
+  char b[64];
+  std::snprintf(b, sizeof(b), "%.*f", digits, v);
+  return b;
+}
+
+double peak_memory_mb() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return double(u.ru_maxrss) / 1024.0;
+}
+
+// "32,64,128": positive integers, each >= min, or a ValidationError naming the option.
+std::vector<int> parse_int_list(const std::string& text, const std::string& option, int min) {
+  std::vector<int> out;
+  std::stringstream ss(text);
+  for (std::string part; std::getline(ss, part, ',');) {
+    char* end = nullptr;
+    const long v = std::strtol(part.c_str(), &end, 10);
+    if (part.empty() || *end != '\0' || v < min || v > 100000)
+      throw CLI::ValidationError(option, "'" + text + "' is not a comma-separated list of integers >= " +
+                                             std::to_string(min));
+    out.push_back(int(v));
+  }
+  if (out.empty()) throw CLI::ValidationError(option, "is empty");
+  return out;
+}
+
+// The map width: --env-width, else from the images' angular resolution.
+int map_width(const io::Scene& scene, const EnvironmentStageOptions& opt) {
+  if (opt.env_width > 0) return opt.env_width;
+  const auto& k = scene.train.frames.front().intrinsics;
+  return scene::envmap_width_for(1.0 / std::max(k.fx, k.fy), opt.env_max_width);
+}
+
+// A comparison sheet of up to 4 views: image | environment re-rendered | error.
+template <class Radiance>
+void write_comparison(const io::Scene& scene, const Radiance& radiance, const fs::path& file) {
+  const io::Split& views = scene.test.frames.empty() ? scene.train : scene.test;
+  std::vector<io::Image> renders;
+  std::vector<io::SheetRow> rows;
+  const auto picked = io::spread_indices(int(views.frames.size()), 4);
+  renders.reserve(picked.size());
+  for (int i : picked) renders.push_back(render::environment_view_with(views.frames[std::size_t(i)], radiance));
+  for (std::size_t k = 0; k < picked.size(); ++k)
+    rows.push_back({&views.frames[std::size_t(picked[k])].image, &renders[k]});
+  if (!rows.empty()) io::write_png8(file, io::comparison_sheet(rows));
+}
+
+std::vector<scene::EnvObservation> observations(const io::Scene& scene, const EnvironmentStageOptions& opt) {
+  std::vector<std::string> skipped;
+  render::BackgroundOptions bo;
+  bo.margin = opt.margin;
+  auto obs = render::background_observations(scene.train, bo, &skipped);
+  for (const auto& name : skipped) warn("environment: frame " + name + " has no mask; its pixels are not used");
+  if (obs.empty())
+    throw io::Error(scene.dir, "no background pixels to fit the environment to (every training pixel lies within " +
+                                   std::to_string(opt.margin) + " pixels of the mask, or no frame has a mask)");
+  return obs;
+}
+
+// Distant: the equirectangular map.
+io::Json distant_environment(const io::Scene& scene, const fs::path& out, const EnvironmentStageOptions& opt) {
+  const auto t0 = clock_type::now();
+  const auto obs = observations(scene, opt);
+  scene::EnvFitOptions fo;
+  fo.width = map_width(scene, opt);
+  fo.height = fo.width / 2;
+  fo.smoothness = opt.smoothness;
+  progress("environment: fitting a " + std::to_string(fo.width) + " x " + std::to_string(fo.height) + " map to " +
+           std::to_string(obs.size()) + " background pixels");
+  const scene::EnvFit fit = scene::fit_environment(obs, fo);
+  const double fit_seconds = std::chrono::duration<double>(clock_type::now() - t0).count();
+  io::Image map(fit.width, fit.height);
+  map.rgb = fit.texels;
+  for (float& v : map.rgb) v = std::max(v, 0.0f);  // radiance: the least-squares fit may ring slightly negative
+  io::write_hdr(out / "envmap.hdr", map);
+  const scene::EnvMap env = scene::equirect_environment(map.rgb.data(), map.width, map.height);
+
+  io::Json j;
+  j["model"] = "distant";
+  j["width"] = fit.width;
+  j["height"] = fit.height;
+  j["observations"] = fit.observations;
+  j["seen_fraction"] = fit.seen_fraction;
+  j["rms_residual"] = fit.rms_residual;
+  j["fit_seconds"] = fit_seconds;
+  j["peak_memory_mb"] = peak_memory_mb();
+  j["psnr_background_train"] = render::background_psnr(scene.train, env, opt.margin);
+  if (!scene.test.frames.empty()) j["psnr_background_test"] = render::background_psnr(scene.test, env, opt.margin);
+  // against the ground-truth map, over the directions the cameras saw
+  if (!scene.gt.envmap.empty() && fs::exists(scene.gt.envmap)) {
+    const io::Image gt = io::read_image(scene.gt.envmap);
+    const scene::EnvMap gt_env = scene::equirect_environment(gt.rgb.data(), gt.width, gt.height);
+    ad::ParamReader<float> reader(nullptr);
+    double se = 0;
+    std::int64_t n = 0;
+    for (int r = 0; r < fit.height; ++r)
+      for (int c = 0; c < fit.width; ++c) {
+        if (!fit.seen[std::size_t(r) * fit.width + c]) continue;
+        const Vec3f d = scene::uv_to_direction((c + 0.5f) / fit.width, (r + 0.5f) / fit.height);
+        const Vec3f want = scene::lookup(reader, gt_env, d), got = map.at(c, r);
+        for (int k = 0; k < 3; ++k) {
+          const double e = double(io::tone_map_value(got[k])) - double(io::tone_map_value(want[k]));
+          se += e * e;
+          ++n;
+        }
+      }
+    if (n) j["psnr_map_seen"] = metrics::detail::psnr_from_mse(se / double(n));
+  }
+  write_comparison(
+      scene,
+      [&](const Vec3f&, const Vec3f& d) {
+        ad::ParamReader<float> reader(nullptr);
+        return scene::lookup(reader, env, d);
+      },
+      out / "environment_comparison.png");
+  return j;
+}
+
+// Near: the radiance field in a cube around the object's centre that holds every training camera.
+io::Json near_environment(const io::Scene& scene, const fs::path& out, const EnvironmentStageOptions& opt) {
+  scene::FieldFitOptions fo;
+  fo.resolutions = parse_int_list(opt.field_resolutions, "--field-resolutions", 2);
+  fo.iterations = parse_int_list(opt.field_iterations, "--field-iterations", 0);
+  if (fo.iterations.size() != 1 && fo.iterations.size() != fo.resolutions.size())
+    throw CLI::ValidationError("--field-iterations", "give one count, or one per level of --field-resolutions (" +
+                                                          std::to_string(fo.resolutions.size()) + ")");
+  fo.batch = opt.field_batch;
+  fo.lr = opt.field_lr;
+  fo.lr_final = opt.field_lr * 0.1f;
+  fo.smoothness_density = fo.smoothness_colour = opt.field_tv;
+  fo.sparsity = opt.field_sparsity;
+  fo.seed = opt.field_seed;
+
+  const auto t0 = clock_type::now();
+  const auto obs = observations(scene, opt);
+  Vec3f centre(0.0f);
+  if (scene.settings.aabb) centre = Vec3f((scene.settings.aabb->lo + scene.settings.aabb->hi) * 0.5);
+  float reach = 0.0f;
+  for (const io::Frame& f : scene.train.frames)
+    reach = std::max(reach, glm::length(Vec3f(Vec3d(f.camera_to_world[3])) - centre));
+  if (!(reach > 1e-6f))
+    throw io::Error(scene.dir, "the training cameras sit at the object's centre: no box for a radiance field");
+  const float half = opt.field_extent * reach;
+  const Vec3f lo = centre - Vec3f(half), hi = centre + Vec3f(half);
+  progress("environment: fitting a radiance field (" + opt.field_resolutions + " vertices per axis, " +
+           opt.field_iterations + " iterations, " + std::to_string(fo.batch) + " rays each) in a cube of half-size " +
+           fixed(half, 2) + " around the object to " + std::to_string(obs.size()) + " background pixels");
+  scene::FieldFitReport report;
+  const scene::RadianceField field = scene::fit_radiance_field(
+      obs, lo, hi, fo, &report, [&](int level, int it, double mse) {
+        progress("environment: level " + std::to_string(level) + " (" +
+                 std::to_string(fo.resolutions[std::size_t(level)]) + "^3) it " + std::to_string(it) + ": mse " +
+                 fixed(mse, 5) + ", " + fixed(std::chrono::duration<double>(clock_type::now() - t0).count(), 1) + " s");
+      });
+  const double fit_seconds = std::chrono::duration<double>(clock_type::now() - t0).count();
+  io::write_radiance_field(out / "radiance_field.json", field, fo.occupancy_sigma);
+  const scene::FieldRadiance radiance{field.view()};
+
+  // the panorama seen from the object's centre
+  const int w = map_width(scene, opt), h = w / 2;
+  io::Image pano(w, h);
+  parallel_for(h, 1, [&](std::int64_t r0, std::int64_t r1, int) {
+    for (int r = int(r0); r < int(r1); ++r)
+      for (int c = 0; c < w; ++c)
+        pano.set(c, r, radiance(centre, scene::uv_to_direction((c + 0.5f) / float(w), (r + 0.5f) / float(h))));
+  });
+  io::write_hdr(out / "envmap.hdr", pano);
+
+  io::Json j;
+  j["model"] = "near";
+  j["resolution"] = fo.resolutions.back();
+  j["levels"] = fo.resolutions;
+  j["iterations"] = report.iterations;
+  j["batch"] = fo.batch;
+  j["box"] = {{"lo", {lo.x, lo.y, lo.z}}, {"hi", {hi.x, hi.y, hi.z}}};
+  j["observations"] = obs.size();
+  j["occupied_fraction"] = report.occupied_fraction;
+  j["last_batch_mse"] = report.last_mse;
+  j["field"] = "radiance_field.json";
+  j["panorama"] = {{"width", w}, {"height", h}, {"from", {centre.x, centre.y, centre.z}}};
+  j["fit_seconds"] = fit_seconds;
+  j["peak_memory_mb"] = peak_memory_mb();
+  j["psnr_background_train"] = render::background_psnr_with(scene.train, radiance, opt.margin);
+  if (!scene.test.frames.empty())
+    j["psnr_background_test"] = render::background_psnr_with(scene.test, radiance, opt.margin);
+  write_comparison(scene, radiance, out / "environment_comparison.png");
+  return j;
+}
+
+}  // namespace
+
+void add_environment_options(CLI::App* cmd, EnvironmentStageOptions& opt) {
+  cmd->add_option("--env-model", opt.model,
+                  "Environment model: auto (scene.json's \"environment\"; distant when absent), distant "
+                  "(equirectangular map) or near (radiance field)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"auto", "distant", "near"}));
+  cmd->add_option("--margin", opt.margin, "Pixels around the mask left out of the environment fit")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 1000));
+  cmd->add_option("--env-width", opt.env_width,
+                  "Environment map (or panorama) width (0: from the images' angular resolution)")
+      ->check(CLI::Range(0, 16384));
+  cmd->add_option("--env-max-width", opt.env_max_width, "Largest automatic map width")
+      ->capture_default_str()
+      ->check(CLI::Range(16, 16384));
+  cmd->add_option("--env-smoothness", opt.smoothness, "Weight of the distant map's smoothness prior")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1e6));
+  cmd->add_option("--field-resolutions", opt.field_resolutions,
+                  "Radiance field: grid vertices per axis of each coarse-to-fine level")
+      ->capture_default_str();
+  cmd->add_option("--field-iterations", opt.field_iterations, "Radiance field: iterations per level (one count or one per level)")
+      ->capture_default_str();
+  cmd->add_option("--field-batch", opt.field_batch, "Radiance field: rays per iteration")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1 << 24));
+  cmd->add_option("--field-extent", opt.field_extent,
+                  "Radiance field: half-size of its cube / distance of the farthest camera from the object's centre")
+      ->capture_default_str()
+      ->check(CLI::Range(1.0, 100.0));
+  cmd->add_option("--field-lr", opt.field_lr, "Radiance field: Adam learning rate (decays tenfold over the fit)")
+      ->capture_default_str()
+      ->check(CLI::Range(1e-6, 10.0));
+  cmd->add_option("--field-tv", opt.field_tv, "Radiance field: weight of the smoothness prior on the grid")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1e3));
+  cmd->add_option("--field-sparsity", opt.field_sparsity, "Radiance field: weight of the density sparsity prior")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1e3));
+  cmd->add_option("--field-seed", opt.field_seed, "Radiance field: seed of the ray batches")->capture_default_str();
+}
+
+io::Json environment_stage(const io::Scene& scene, const fs::path& out, const EnvironmentStageOptions& opt) {
+  std::string model = opt.model;
+  if (model == "auto") {
+    if (scene.has_scene_json) {
+      model = io::to_string(scene.settings.environment);
+      progress("environment: scene.json says \"" + model + "\"");
+    } else {
+      model = "distant";
+      progress("environment: scene.json absent, so the environment is taken as distant (an equirectangular map)");
+    }
+  } else if (scene.has_scene_json && model != io::to_string(scene.settings.environment)) {
+    progress("environment: --env-model " + model + " overrides scene.json's \"" +
+             io::to_string(scene.settings.environment) + "\"");
+  }
+  if (scene.train.frames.empty()) throw io::Error(scene.dir, "no training frames");
+  io::Json j = model == "near" ? near_environment(scene, out, opt) : distant_environment(scene, out, opt);
+  j["model_source"] = opt.model == "auto" ? (scene.has_scene_json ? "scene.json" : "default") : "--env-model";
+  progress("environment: " + model + " model, background PSNR train " + fixed(j["psnr_background_train"].get<double>(), 2) +
+           (j.contains("psnr_background_test") ? ", test " + fixed(j["psnr_background_test"].get<double>(), 2) : "") +
+           " dB, " + fixed(j["fit_seconds"].get<double>(), 1) + " s");
+  return j;
+}
+
+}  // namespace difftrans::cli
