@@ -1,0 +1,93 @@
+// Reverse mode over an arbitrary batch of camera rays — pixels drawn from
+// several views, as stage 2 trains — with the loss evaluated per ray: each
+// ray is traced on a tape, the caller's loss turns its radiance into a value
+// and an adjoint, and the tape is swept back at once. No image is kept and no
+// second pass is needed, which a per-pixel loss (L2, relative L2, a colour
+// cosine) allows.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "difftrans/core/parallel.hpp"
+#include "difftrans/render/host_scene.hpp"
+#include "difftrans/render/passes.hpp"
+
+namespace difftrans::render {
+
+struct BatchRay {
+  Vec3f origin, direction;
+};
+
+struct RayBatchResult {
+  double loss = 0.0;      // sum of the per-ray losses
+  PassStats stats;
+  std::vector<Vec3f> radiance;  // per ray, when asked for
+};
+
+// For every ray i: L = trace(ray i); loss(i, L, dL) returns the ray's loss and
+// writes dLoss/dL; the gradient of the summed loss w.r.t. every buffer marked
+// in s.differentiate is added to `grad`. `loss` is called concurrently from
+// the pool's workers (for different i). Rays whose tape overflows contribute
+// their loss but no gradient (counted in stats.overflowed_rays).
+template <class T = float, class Loss>
+RayBatchResult ray_batch_gradient(const HostScene& s, const std::vector<BatchRay>& rays, Loss&& loss,
+                                  SceneGradient& grad, const PassOptions& opt = {}, bool keep_radiance = false) {
+  using V = ad::Var<T>;
+  RayBatchResult out;
+  if (keep_radiance) out.radiance.assign(rays.size(), Vec3f(0.0f));
+  const SceneView view = s.view(true, true);
+  ad::ParamSet params = s.params();
+  grad.attach(params);
+  ThreadPool& pool = ThreadPool::global();
+  detail::StatsPerWorker st(pool.size());
+  std::vector<double> losses(std::size_t(pool.size()), 0.0);
+  std::vector<std::unique_ptr<ad::Tape<T>>> tapes(std::size_t(pool.size()));
+  std::vector<std::vector<ad::LeafRecord>> logs(std::size_t(pool.size()));
+  pool.parallel_for(std::int64_t(rays.size()), 16, [&](std::int64_t b, std::int64_t e, int w) {
+    auto& tape = tapes[std::size_t(w)];
+    auto& log = logs[std::size_t(w)];
+    if (!tape) {
+      tape = std::make_unique<ad::Tape<T>>(opt.tape_capacity);
+      log.resize(std::size_t(opt.leaf_log_capacity));
+    }
+    ad::ParamReader<V> reader(&params, tape.get(), log.data(), std::int32_t(log.size()));
+    PassStats& ps = st.per[std::size_t(w)];
+    for (std::int64_t i = b; i < e; ++i) {
+      tape->reset();
+      reader.clear();
+      const BatchRay& r = rays[std::size_t(i)];
+      Vec3<V> L;
+      s.with_escape([&](const auto& escape) {
+        L = trace<V>(view, s.accel(), reader, r.origin, r.direction, opt.trace, &ps.trace, escape);
+      });
+      ++ps.rays;
+      ps.tape_nodes += tape->size();
+      ps.max_tape_nodes = tape->size() > ps.max_tape_nodes ? tape->size() : ps.max_tape_nodes;
+      const Vec3f value(float(L.x.value), float(L.y.value), float(L.z.value));
+      if (keep_radiance) out.radiance[std::size_t(i)] = value;
+      Vec3f adjoint(0.0f);
+      losses[std::size_t(w)] += loss(std::int32_t(i), value, adjoint);
+      if (tape->overflowed() || reader.overflowed()) {
+        ++ps.overflowed_rays;
+        reader.clear();
+        continue;
+      }
+      if (adjoint == Vec3f(0.0f)) {
+        reader.clear();
+        continue;
+      }
+      tape->zero_adjoints();
+      for (int c = 0; c < 3; ++c) tape->seed(L[c], T(adjoint[c]));
+      tape->propagate();
+      reader.scatter();
+    }
+  });
+  grad.fold_normals(s);
+  out.stats = st.total();
+  for (double l : losses) out.loss += l;
+  return out;
+}
+
+}  // namespace difftrans::render
