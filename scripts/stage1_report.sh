@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Stage 1 on the quick variant of the four benchmark scenes and a procedural
-# genus-5 block, and the ablation on two of them; prints a Markdown table of
-# CD, F1, genus, wall time and peak memory (issue 5's measurement).
+# genus-5 block (full method and mask only), and the ablation on two of them;
+# prints a Markdown table of CD, F1, genus, wall and CPU time and peak memory
+# (issue 5's measurement). Runs are grep-able by name: runs/SCENE.TAG/.
 #
 #   bash scripts/stage1_report.sh WORK_DIR [--only full|ablation]
 #
@@ -47,6 +48,8 @@ scenes="spot-clear bunny-clear horse-green monkey-bands holes-5"
 ablation="holes-5 monkey-bands"
 if [ "$only" != ablation ]; then
   for s in $scenes; do run "$s" full; done
+  # mask only on every scene: the full method should beat it everywhere
+  for s in $scenes; do run "$s" mask --weights "dilation=0,smoothness=0,$off" --refine-iterations 0; done
 fi
 if [ "$only" != full ]; then
   for s in $ablation; do
@@ -61,14 +64,15 @@ fi
 # the table: one row per finished run (raw = FlexiCubes mesh, final = after remeshing + refinement)
 wall() { grep "Elapsed (wall clock)" "$1" | awk '{print $NF}'; }
 rss() { grep "Maximum resident set size" "$1" | awk '{printf "%.0f", $NF/1024}'; }
-echo "| scene | run | mesh | CD | F1 | genus (gt) | components | wall | peak RSS (MB) |"
-echo "|---|---|---|---|---|---|---|---|---|"
+cpu() { awk '/User time|System time/ {t += $NF} END {printf "%.0f", t}' "$1"; }
+echo "| scene | run | mesh | CD | F1 | genus (gt) | components | wall | CPU s | peak RSS (MB) |"
+echo "|---|---|---|---|---|---|---|---|---|---|"
 for f in "$work"/runs/*/reconstruct.json; do
   [ -f "$f" ] || continue
   d=$(dirname "$f"); base=$(basename "$d"); name=${base%.*}; tag=${base##*.}
   for m in raw final; do
     [ "$m" = final ] && [ "$(jq -r '.geometry.refine_seconds // 0' "$f")" = 0 ] && continue
-    jq -r --arg n "$name" --arg t "$tag" --arg m "$m" --arg w "$(wall "$d.log")" --arg r "$(rss "$d.log")" \
-      '.geometry as $g | "| \($n) | \($t) | \($m) | \($g[$m].chamfer | .*1e6 | round / 1e6) | \($g[$m].f1 | .*1000 | round / 1000) | \($g[$m].genus) (\($g.gt_genus)) | \($g[$m].components) | \($w) | \($r) |"' "$f"
+    jq -r --arg n "$name" --arg t "$tag" --arg m "$m" --arg w "$(wall "$d.log")" --arg r "$(rss "$d.log")" --arg c "$(cpu "$d.log")" \
+      '.geometry as $g | "| \($n) | \($t) | \($m) | \($g[$m].chamfer | .*1e6 | round / 1e6) | \($g[$m].f1 | .*1000 | round / 1000) | \($g[$m].genus) (\($g.gt_genus)) | \($g[$m].components) | \($w) | \($c) | \($r) |"' "$f"
   done
 done

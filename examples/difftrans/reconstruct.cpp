@@ -1,8 +1,10 @@
 // difftrans reconstruct: the DiffTrans pipeline on a scene directory, stage
 // by stage. Implemented so far: --stages environment (a distant map or a
 // near-field radiance field fitted to the out-of-mask pixels,
-// stage_environment.cpp) and geometry (stage 1, stage_geometry.cpp).
-// Materials (stage 2) follow in a later version.
+// stage_environment.cpp), geometry (stage 1, stage_geometry.cpp) and
+// materials (stage 2, stage_materials.cpp). Stages run in the order given and
+// read what earlier ones wrote into --out; reconstruct.json keeps the records
+// of stages run by earlier invocations.
 #include <chrono>
 #include <sstream>
 #include <sys/resource.h>
@@ -30,32 +32,43 @@ void add_reconstruct(CLI::App& app) {
   auto opt = std::make_shared<ReconstructOptions>();
   auto environment = std::make_shared<EnvironmentStageOptions>();
   auto geometry = std::make_shared<GeometryStageOptions>();
+  auto materials = std::make_shared<MaterialsStageOptions>();
   CLI::App* cmd = app.add_subcommand("reconstruct", "Reconstruct a transparent object from a scene directory");
   cmd->add_option("scene", opt->scene, "Scene directory (transforms_train.json, images, masks)")->required();
   cmd->add_option("--out", opt->out, "Output directory")->required();
-  cmd->add_option("--stages", opt->stages, "Stages to run, comma-separated: environment, geometry")->capture_default_str();
+  cmd->add_option("--stages", opt->stages, "Stages to run, comma-separated: environment, geometry, materials")->capture_default_str();
   add_environment_options(cmd, *environment);
   add_geometry_options(cmd, *geometry);
-  cmd->callback([opt, environment, geometry] {
+  add_materials_options(cmd, *materials);
+  cmd->callback([opt, environment, geometry, materials] {
     std::stringstream ss(opt->stages);
     std::vector<std::string> stages;
     for (std::string s; std::getline(ss, s, ',');)
       if (!s.empty()) stages.push_back(s);
     for (const auto& s : stages)
-      if (s != "environment" && s != "geometry")
-        throw std::runtime_error("--stages: '" + s +
-                                 "' is not available in this version (available: environment, geometry)");
+      if (s != "environment" && s != "geometry" && s != "materials")
+        throw std::runtime_error("--stages: '" + s + "' is not a stage (stages: environment, geometry, materials)");
     progress("reconstruct: loading " + opt->scene.string());
     const io::Scene scene = io::load_scene(opt->scene);
     for (const auto& w : scene.warnings) warn(w);
     fs::create_directories(opt->out);
-    io::Json result;
+    io::Json result = io::Json::object();
+    const fs::path record = opt->out / "reconstruct.json";
+    if (fs::exists(record)) {  // keep the stages an earlier invocation ran
+      try {
+        result = io::read_json(record);
+      } catch (const std::exception& e) {
+        warn(record.string() + " is unreadable (" + e.what() + "); starting a new record");
+      }
+    }
     result["scene"] = opt->scene.string();
     for (const auto& s : stages)
       if (s == "environment") {
         result["environment"] = environment_stage(scene, opt->out, *environment);
       } else if (s == "geometry") {
         result["geometry"] = geometry_stage(scene, opt->out, *geometry);
+      } else if (s == "materials") {
+        result["materials"] = materials_stage(scene, opt->out, *materials);
       }
     emit_json(result, opt->out / "reconstruct.json");
   });

@@ -62,4 +62,21 @@ void add_geometry_options(CLI::App* cmd, GeometryStageOptions& opt);
 // Runs stage 1 on the scene's training views, writing into `out`; returns the stage's JSON record.
 io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out, const GeometryStageOptions& opt);
 
+// Stage 2 (IoR, absorption grid and, optionally, vertices through the tracer): stage_materials.cpp.
+struct MaterialsStageOptions {
+  int iterations = 500;
+  int rays = 8192;               // training rays per iteration
+  int freeze = 300;              // iterations before the vertices move (with geometry)
+  bool geometry = false;         // move the vertices too (experimental)
+  float ior_init = 1.5f;
+  int absorption_res = 16;       // grid vertices per axis
+  std::string mesh;              // default: DIR/mesh_stage1.obj
+  int test_spp_axis = 2;         // test renders: n x n samples per pixel
+};
+
+void add_materials_options(CLI::App* cmd, MaterialsStageOptions& opt);
+
+// Runs stage 2 from the stage-1 mesh and the recovered environment in `out`; returns the stage's JSON record.
+io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& out, const MaterialsStageOptions& opt);
+
 }  // namespace difftrans::cli

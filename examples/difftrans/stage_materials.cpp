@@ -1,0 +1,182 @@
+// difftrans reconstruct --stages materials: stage 2. The stage-1 mesh
+// (DIR/mesh_stage1.obj) and the recovered environment (DIR/envmap.hdr, or the
+// near field DIR/radiance_field.json) are read back; the IoR and an
+// absorption grid (and, with --materials-geometry, the vertices) are fitted to
+// the photographs' object pixels through the recursive tracer. Writes
+// material_stage2.json (+ absorption_stage2.json), mesh_stage2.obj, the loss
+// curve, renders of the test views with metrics and a contact sheet, and the
+// IoR / CD / F1 errors when the scene has ground truth.
+#include "stages.hpp"
+#include "stage_output.hpp"
+#include "views.hpp"
+
+#include <chrono>
+#include <sys/resource.h>
+
+#include "difftrans/io/material.hpp"
+#include "difftrans/io/mesh_file.hpp"
+#include "difftrans/io/radiance_field.hpp"
+#include "difftrans/metrics/chamfer.hpp"
+#include "difftrans/metrics/ior.hpp"
+#include "difftrans/render/background.hpp"
+#include "difftrans/render/stage2.hpp"
+
+namespace difftrans::cli {
+
+void add_materials_options(CLI::App* cmd, MaterialsStageOptions& opt) {
+  cmd->add_option("--materials-iterations", opt.iterations, "Materials: iterations")->capture_default_str();
+  cmd->add_option("--materials-rays", opt.rays, "Materials: training rays (object pixels) per iteration")->capture_default_str();
+  cmd->add_option("--materials-freeze", opt.freeze, "Materials: iterations with the geometry frozen (with --materials-geometry)")
+      ->capture_default_str();
+  cmd->add_flag("--materials-geometry", opt.geometry,
+                "Materials: also move the vertices (large steps) after the frozen iterations (experimental, see README)");
+  cmd->add_option("--ior-init", opt.ior_init, "Materials: starting IoR")->capture_default_str();
+  cmd->add_option("--absorption-res", opt.absorption_res, "Materials: absorption grid vertices per axis")->capture_default_str();
+  cmd->add_option("--materials-mesh", opt.mesh, "Materials: mesh to start from (default: DIR/mesh_stage1.obj)");
+  cmd->add_option("--test-spp-axis", opt.test_spp_axis, "Materials: n x n samples per pixel of the test renders")
+      ->capture_default_str();
+}
+
+io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& out, const MaterialsStageOptions& opt) {
+  namespace fs = std::filesystem;
+  using clock = std::chrono::steady_clock;
+  const auto t_start = clock::now();
+  const fs::path mesh_path = opt.mesh.empty() ? out / "mesh_stage1.obj" : fs::path(opt.mesh);
+  if (!fs::exists(mesh_path))
+    throw std::runtime_error(mesh_path.string() + ": the stage-1 mesh is missing; run --stages geometry first "
+                             "(or give --materials-mesh)");
+  const io::Mesh mesh = io::read_mesh(mesh_path);
+  render::HostScene s = render::make_host_scene(mesh, io::Material{}, mesh_path.filename().string());
+  io::Json j;
+  j["mesh_in"] = mesh_path.string();
+  // the environment recovered by the environment stage
+  const fs::path field_path = out / "radiance_field.json", env_path = out / "envmap.hdr";
+  if (fs::exists(field_path)) {
+    s.set_near_field(std::make_shared<const scene::RadianceField>(io::read_radiance_field(field_path)));
+    j["environment"] = field_path.string();
+  } else if (fs::exists(env_path)) {
+    render::set_environment(s, io::read_image(env_path));
+    j["environment"] = env_path.string();
+  } else {
+    throw std::runtime_error(env_path.string() + ": no recovered environment; run --stages environment first");
+  }
+
+  // training views: images and masks
+  std::vector<render::Stage2View> views;
+  std::vector<geometry::Stage1View> mask_views;
+  for (const io::Frame& f : scene.train.frames) {
+    if (f.environment_only) continue;
+    if (f.mask.width == 0) {
+      warn("materials: frame " + f.name + " has no mask; it is not used");
+      continue;
+    }
+    render::Stage2View v;
+    v.camera = render::camera_of(f);
+    if (f.image.width != v.camera.width || f.image.height != v.camera.height || f.mask.width != v.camera.width ||
+        f.mask.height != v.camera.height)
+      throw std::runtime_error("materials: frame " + f.name + ": image or mask size differs from its camera");
+    v.image = f.image.rgb.data();
+    v.mask = f.mask.inside.data();
+    views.push_back(v);
+    geometry::Stage1View m;
+    m.camera = v.camera;
+    m.target.resize(f.mask.inside.size());
+    for (std::size_t p = 0; p < m.target.size(); ++p) m.target[p] = f.mask.inside[p] ? 1.0f : 0.0f;
+    mask_views.push_back(std::move(m));
+  }
+  if (views.empty()) throw std::runtime_error("materials: no training frame has an image and a mask");
+
+  render::Stage2Config cfg;
+  cfg.iterations = opt.iterations;
+  cfg.rays_per_iteration = opt.rays;
+  cfg.freeze_geometry = opt.freeze;
+  cfg.optimize_positions = opt.geometry;
+  cfg.ior_init = opt.ior_init;
+  cfg.absorption_res = Vec3i(std::max(2, opt.absorption_res));
+  {  // the absorption grid spans the mesh's box, a little grown
+    Vec3f lo(1e30f), hi(-1e30f);
+    for (const Vec3f& p : mesh.positions) lo = glm::min(lo, p), hi = glm::max(hi, p);
+    const Vec3f pad = 0.05f * (hi - lo) + Vec3f(1e-3f);
+    cfg.box_lo = lo - pad;
+    cfg.box_hi = hi + pad;
+  }
+  j["iterations"] = cfg.iterations;
+  j["rays_per_iteration"] = cfg.rays_per_iteration;
+  j["geometry_optimized"] = cfg.optimize_positions;
+  j["absorption_res"] = cfg.absorption_res.x;
+  j["training_views"] = views.size();
+  j["training_depth"] = cfg.trace.max_depth;
+
+  progress("materials: " + std::to_string(cfg.iterations) + " iterations over " + std::to_string(views.size()) +
+           " views, " + std::to_string(cfg.rays_per_iteration) + " rays each, IoR from " + fixed(cfg.ior_init, 3) +
+           ", absorption grid " + std::to_string(cfg.absorption_res.x) + "^3" +
+           (cfg.optimize_positions ? ", vertices after " + std::to_string(cfg.freeze_geometry) : std::string()));
+  render::Stage2 stage(s, views, mask_views, cfg);
+  std::vector<double> color_curve, ior_curve;
+  auto last_print = clock::now();
+  const auto t0 = clock::now();
+  while (!stage.done()) {
+    const render::Stage2Stats st = stage.step();
+    color_curve.push_back(st.color);
+    ior_curve.push_back(st.ior);
+    if (stage.done() || st.iteration < 2 || std::chrono::duration<double>(clock::now() - last_print).count() > 2.0) {
+      progress("materials: it " + std::to_string(st.iteration + 1) + "/" + std::to_string(cfg.iterations) + " colour " +
+               fixed(st.color, 5) + " IoR " + fixed(st.ior, 4) + " mean sigma (" + fixed(st.mean_sigma.x, 3) + ", " +
+               fixed(st.mean_sigma.y, 3) + ", " + fixed(st.mean_sigma.z, 3) + ")" +
+               (st.geometry_moving ? " mask " + fixed(st.mask, 5) : std::string()) + "  " + fixed(st.seconds, 3) +
+               " s/it" + (st.skipped_rays ? "  skipped " + std::to_string(st.skipped_rays) : std::string()));
+      last_print = clock::now();
+    }
+  }
+  const double fit_seconds = std::chrono::duration<double>(clock::now() - t0).count();
+  j["fit_seconds"] = fit_seconds;
+  j["ior"] = s.ior;
+  const Vec3f ms = stage.mean_sigma();
+  j["mean_sigma"] = {ms.x, ms.y, ms.z};
+
+  // outputs: material, mesh, loss curve
+  io::Material mat;
+  mat.ior = s.ior;
+  mat.absorption = io::AbsorptionType::grid;
+  mat.grid.res = s.absorption_res;
+  mat.grid.lo = s.absorption_lo;
+  mat.grid.hi = s.absorption_hi;
+  mat.grid.sigma.resize(s.absorption_raw.size());
+  for (std::size_t i = 0; i < s.absorption_raw.size(); ++i) mat.grid.sigma[i] = ad::softplus(s.absorption_raw[i]);
+  mat.grid_file = "absorption_stage2.json";
+  io::write_material(out / "material_stage2.json", mat);
+  io::write_mesh(out / "mesh_stage2.obj", to_io_mesh(s.mesh.positions, s.mesh.triangles));
+  write_loss_svg(out / "stage2_loss.svg", {{"colour loss (L2, training rays)", color_curve}, {"IoR", ior_curve}});
+
+  // test views: renders, metrics, contact sheet
+  const io::Split& test = scene.test.frames.empty() ? scene.train : scene.test;
+  std::vector<View> test_views;
+  for (const io::Frame& f : test.frames)
+    if (!f.environment_only) test_views.push_back(view_from_frame(f));
+  const render::PassOptions ref = render::reference_pass_options(8, opt.test_spp_axis);
+  const auto renders = render_views(s, test_views, ref, out / "stage2_test", false, "materials: test views");
+  j["test"] = compare_with_truth(renders, nullptr, out / "stage2_test");
+  j["test_split"] = scene.test.frames.empty() ? "train (no test split)" : "test";
+
+  // against the ground truth
+  if (!scene.gt.material.empty() && fs::exists(scene.gt.material)) {
+    const io::Material gt = io::read_material(scene.gt.material);
+    j["ior_true"] = gt.ior;
+    j["ior_error"] = metrics::ior_error(s.ior, gt.ior);
+  }
+  if (!scene.gt.mesh.empty() && fs::exists(scene.gt.mesh)) {
+    const auto g = metrics::evaluate_geometry(to_io_mesh(s.mesh.positions, s.mesh.triangles), io::read_mesh(scene.gt.mesh));
+    j["chamfer"] = g.chamfer;
+    j["f1"] = g.f1;
+  }
+  progress("materials: IoR " + fixed(s.ior, 4) +
+           (j.contains("ior_error") ? " (error " + fixed(j["ior_error"].get<double>(), 4) + ")" : std::string()) +
+           ", test PSNR " + fixed(j["test"].value("psnr", 0.0), 2) + " dB, fitted in " + duration_text(fit_seconds));
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  j["peak_memory_mb"] = double(u.ru_maxrss) / 1024.0;
+  j["seconds"] = std::chrono::duration<double>(clock::now() - t_start).count();
+  return j;
+}
+
+}  // namespace difftrans::cli
