@@ -26,7 +26,11 @@ namespace difftrans::cli {
 void add_materials_options(CLI::App* cmd, MaterialsStageOptions& opt) {
   cmd->add_option("--materials-iterations", opt.iterations, "Materials: iterations")->capture_default_str();
   cmd->add_option("--materials-rays", opt.rays, "Materials: training rays (object pixels) per iteration")->capture_default_str();
-  cmd->add_option("--materials-freeze", opt.freeze, "Materials: iterations with the geometry frozen (with --materials-geometry)")
+  cmd->add_option("--materials-freeze", opt.freeze,
+                  "Materials: warm-up iterations (IoR at lr 1e-4, geometry frozen) before the joint phase")
+      ->capture_default_str();
+  cmd->add_option("--materials-lr-ior", opt.lr_ior, "Materials: IoR learning rate after the warm-up")->capture_default_str();
+  cmd->add_option("--materials-lr-absorption", opt.lr_absorption, "Materials: absorption learning rate (raw parameters)")
       ->capture_default_str();
   cmd->add_flag("--materials-geometry", opt.geometry,
                 "Materials: also move the vertices (large steps) after the frozen iterations (experimental, see README)");
@@ -92,6 +96,8 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
   cfg.freeze_geometry = opt.freeze;
   cfg.optimize_positions = opt.geometry;
   cfg.ior_init = opt.ior_init;
+  cfg.lr_ior = opt.lr_ior;
+  cfg.lr_absorption = opt.lr_absorption;
   cfg.absorption_res = Vec3i(std::max(2, opt.absorption_res));
   {  // the absorption grid spans the mesh's box, a little grown
     Vec3f lo(1e30f), hi(-1e30f);

@@ -64,11 +64,13 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
 
 // Stage 2 (IoR, absorption grid and, optionally, vertices through the tracer): stage_materials.cpp.
 struct MaterialsStageOptions {
-  int iterations = 500;
+  int iterations = 1000;
   int rays = 8192;               // training rays per iteration
   int freeze = 300;              // iterations before the vertices move (with geometry)
   bool geometry = false;         // move the vertices too (experimental)
   float ior_init = 1.5f;
+  float lr_ior = 3e-3f;          // after the warm-up (freeze) iterations, which use 1e-4
+  float lr_absorption = 0.1f;    // on the raw (softplus) absorption parameters
   int absorption_res = 16;       // grid vertices per axis
   std::string mesh;              // default: DIR/mesh_stage1.obj
   int test_spp_axis = 2;         // test renders: n x n samples per pixel
