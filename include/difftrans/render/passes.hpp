@@ -71,6 +71,28 @@ struct StatsPerWorker {
   }
 };
 
+// One tape and leaf log per pool worker (reverse-mode passes), made on first use.
+template <class T>
+class WorkerTapes {
+ public:
+  WorkerTapes(int workers, const PassOptions& opt) : tapes_(std::size_t(workers)), logs_(std::size_t(workers)), opt_(opt) {}
+  // The reader of worker w over `params`, recording on the worker's tape (reader.tape()).
+  ad::ParamReader<ad::Var<T>> reader(int w, const ad::ParamSet* params) {
+    auto& tape = tapes_[std::size_t(w)];
+    auto& log = logs_[std::size_t(w)];
+    if (!tape) {
+      tape = std::make_unique<ad::Tape<T>>(opt_.tape_capacity);
+      log.resize(std::size_t(opt_.leaf_log_capacity));
+    }
+    return ad::ParamReader<ad::Var<T>>(params, tape.get(), log.data(), std::int32_t(log.size()));
+  }
+
+ private:
+  std::vector<std::unique_ptr<ad::Tape<T>>> tapes_;
+  std::vector<std::vector<ad::LeafRecord>> logs_;
+  const PassOptions& opt_;
+};
+
 }  // namespace detail
 
 namespace detail {
@@ -130,16 +152,10 @@ std::vector<float> render_gradient(const HostScene& s, const scene::Camera& cam,
   grad.attach(params);
   ThreadPool& pool = ThreadPool::global();
   detail::StatsPerWorker st(pool.size());
-  std::vector<std::unique_ptr<ad::Tape<T>>> tapes(std::size_t(pool.size()));
-  std::vector<std::vector<ad::LeafRecord>> logs(std::size_t(pool.size()));
+  detail::WorkerTapes<T> tapes(pool.size(), opt);
   pool.parallel_for(std::int64_t(cam.width) * cam.height, 16, [&](std::int64_t b, std::int64_t e, int w) {
-    auto& tape = tapes[std::size_t(w)];
-    auto& log = logs[std::size_t(w)];
-    if (!tape) {
-      tape = std::make_unique<ad::Tape<T>>(opt.tape_capacity);
-      log.resize(std::size_t(opt.leaf_log_capacity));
-    }
-    ad::ParamReader<V> reader(&params, tape.get(), log.data(), std::int32_t(log.size()));
+    ad::ParamReader<V> reader = tapes.reader(w, &params);
+    ad::Tape<T>* tape = reader.tape();
     PassStats& ps = st.per[std::size_t(w)];
     detail::for_each_sample(cam, opt.samples_per_axis, b, e, [&](std::int64_t pix, Vec3f o, Vec3f d, float wt) {
       tape->reset();

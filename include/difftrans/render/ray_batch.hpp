@@ -43,16 +43,10 @@ RayBatchResult ray_batch_gradient(const HostScene& s, const std::vector<BatchRay
   ThreadPool& pool = ThreadPool::global();
   detail::StatsPerWorker st(pool.size());
   std::vector<double> losses(std::size_t(pool.size()), 0.0);
-  std::vector<std::unique_ptr<ad::Tape<T>>> tapes(std::size_t(pool.size()));
-  std::vector<std::vector<ad::LeafRecord>> logs(std::size_t(pool.size()));
+  detail::WorkerTapes<T> tapes(pool.size(), opt);
   pool.parallel_for(std::int64_t(rays.size()), 16, [&](std::int64_t b, std::int64_t e, int w) {
-    auto& tape = tapes[std::size_t(w)];
-    auto& log = logs[std::size_t(w)];
-    if (!tape) {
-      tape = std::make_unique<ad::Tape<T>>(opt.tape_capacity);
-      log.resize(std::size_t(opt.leaf_log_capacity));
-    }
-    ad::ParamReader<V> reader(&params, tape.get(), log.data(), std::int32_t(log.size()));
+    ad::ParamReader<V> reader = tapes.reader(w, &params);
+    ad::Tape<T>* tape = reader.tape();
     PassStats& ps = st.per[std::size_t(w)];
     for (std::int64_t i = b; i < e; ++i) {
       tape->reset();
