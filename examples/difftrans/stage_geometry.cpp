@@ -101,7 +101,11 @@ void add_geometry_options(CLI::App* cmd, GeometryStageOptions& opt) {
   cmd->add_option("--refine-iterations", opt.refine_iterations, "Geometry: large-steps iterations after remeshing")
       ->capture_default_str();
   cmd->add_option("--refine-batch", opt.refine_views, "Geometry: training views per refinement iteration")->capture_default_str();
-  cmd->add_option("--lr", opt.lr, "Geometry: FlexiCubes learning rate lr0 (decays as lr0 10^(-0.0002 i))")->capture_default_str();
+  cmd->add_option("--lr", opt.lr, "Geometry: FlexiCubes learning rate lr0 (decays as lr0 10^(-d i), d = --lr-decay)")->capture_default_str();
+  cmd->add_option("--lr-decay", opt.lr_decay, "Geometry: d in lr0 10^(-d i)")->capture_default_str();
+  cmd->add_option("--schedule", opt.schedule,
+                  "Geometry: MASK_ONLY,PERIOD,DEVELOPABILITY_START iterations (default: 10 %, 5 %, 80 % of --iterations, "
+                  "the paper's 100,50,800 for 1000)");
   cmd->add_option("--adam-eps", opt.adam_eps, "Geometry: Adam's epsilon for the FlexiCubes unknowns")->capture_default_str();
   cmd->add_option("--weights", opt.weights,
                   "Geometry: loss weights NAME=VALUE,... (mask, dilation, smoothness, bce, area, dev, developability, weight_l1)");
@@ -176,6 +180,26 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
   cfg.mask_only_iterations = std::max(1, opt.iterations / 10);
   cfg.alternate_period = std::max(1, opt.iterations / 20);
   cfg.developability_start = opt.iterations * 8 / 10;
+  cfg.lr_decay = opt.lr_decay;
+  if (!opt.schedule.empty()) {  // MASK_ONLY,PERIOD,DEVELOPABILITY_START
+    std::stringstream ss(opt.schedule);
+    std::vector<int> v;
+    for (std::string item; std::getline(ss, item, ',');) {
+      try {
+        std::size_t used = 0;
+        v.push_back(std::stoi(item, &used));
+        if (used != item.size()) throw std::invalid_argument(item);
+      } catch (const std::exception&) {
+        throw std::runtime_error("--schedule: '" + item + "' is not an integer (expected MASK_ONLY,PERIOD,DEVELOPABILITY_START)");
+      }
+    }
+    if (v.size() != 3 || v[0] < 0 || v[1] < 1 || v[2] < 0)
+      throw std::runtime_error("--schedule: '" + opt.schedule +
+                               "' is not MASK_ONLY,PERIOD,DEVELOPABILITY_START (iterations >= 0, period >= 1)");
+    cfg.mask_only_iterations = v[0];
+    cfg.alternate_period = v[1];
+    cfg.developability_start = v[2];
+  }
   if (opt.smoothness == "screen") {
     cfg.smoothness = dg::Stage1Smoothness::screen_space;
   } else if (opt.smoothness == "edge") {
@@ -212,6 +236,8 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
   j["init"] = opt.init;
   j["carve_margin"] = cfg.carve_margin;
   j["adam_eps"] = cfg.adam_eps;
+  j["schedule"] = {{"mask_only", cfg.mask_only_iterations}, {"period", cfg.alternate_period},
+                   {"developability_start", cfg.developability_start}, {"lr", cfg.lr}, {"lr_decay", cfg.lr_decay}};
   j["weights"] = {{"mask", cfg.weights.mask},           {"dilation", cfg.weights.dilation}, {"smoothness", cfg.weights.smoothness},
                   {"bce", cfg.weights.bce},             {"area", cfg.weights.area},         {"dev", cfg.weights.dev},
                   {"developability", cfg.weights.developability}, {"weight_l1", cfg.weights.weight_l1}};

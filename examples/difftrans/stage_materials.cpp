@@ -35,6 +35,8 @@ void add_materials_options(CLI::App* cmd, MaterialsStageOptions& opt) {
   cmd->add_flag("--materials-geometry", opt.geometry,
                 "Materials: also move the vertices (large steps) after the frozen iterations (experimental, see README)");
   cmd->add_option("--ior-init", opt.ior_init, "Materials: starting IoR")->capture_default_str();
+  cmd->add_option("--materials-tone", opt.tone, "Materials: weight of the tone loss (1 - cos(rendered, photo))^2")
+      ->capture_default_str();
   cmd->add_option("--absorption-res", opt.absorption_res, "Materials: absorption grid vertices per axis")->capture_default_str();
   cmd->add_option("--materials-mesh", opt.mesh, "Materials: mesh to start from (default: DIR/mesh_stage1.obj)");
   cmd->add_option("--test-spp-axis", opt.test_spp_axis, "Materials: n x n samples per pixel of the test renders")
@@ -98,6 +100,7 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
   cfg.ior_init = opt.ior_init;
   cfg.lr_ior = opt.lr_ior;
   cfg.lr_absorption = opt.lr_absorption;
+  cfg.weights.tone = opt.tone;
   cfg.absorption_res = Vec3i(std::max(2, opt.absorption_res));
   {  // the absorption grid spans the mesh's box, a little grown
     Vec3f lo(1e30f), hi(-1e30f);
@@ -112,6 +115,9 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
   j["absorption_res"] = cfg.absorption_res.x;
   j["training_views"] = views.size();
   j["training_depth"] = cfg.trace.max_depth;
+  j["lr_ior"] = cfg.lr_ior;
+  j["lr_absorption"] = cfg.lr_absorption;
+  j["tone_weight"] = cfg.weights.tone;
 
   progress("materials: " + std::to_string(cfg.iterations) + " iterations over " + std::to_string(views.size()) +
            " views, " + std::to_string(cfg.rays_per_iteration) + " rays each, IoR from " + fixed(cfg.ior_init, 3) +

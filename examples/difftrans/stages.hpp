@@ -46,6 +46,8 @@ struct GeometryStageOptions {
   int refine_views = 8;          // training views per refinement iteration
   float lr = 0.01f;
   float adam_eps = 1e-8f;
+  float lr_decay = 0.0002f;      // lr0 · 10^(−lr_decay · i)
+  std::string schedule;          // "MASK_ONLY,PERIOD,DEVELOPABILITY_START"; empty: scaled from the paper's by --iterations
   std::string weights;           // NAME=VALUE,... overriding Stage1Weights (mask, dilation, smoothness, bce, area, dev, developability, weight_l1)
   float margin = 0.1f;           // around the unit box when scene.json has no aabb
   std::string smoothness = "screen";  // screen | edge | none
@@ -70,7 +72,8 @@ struct MaterialsStageOptions {
   bool geometry = false;         // move the vertices too (experimental)
   float ior_init = 1.5f;
   float lr_ior = 3e-3f;          // after the warm-up (freeze) iterations, which use 1e-4
-  float lr_absorption = 0.1f;    // on the raw (softplus) absorption parameters
+  float lr_absorption = 0.02f;   // on the raw (softplus) absorption parameters
+  float tone = 0.1f;             // weight of the tone (colour direction) loss; the colour L2 has weight 1
   int absorption_res = 16;       // grid vertices per axis
   std::string mesh;              // default: DIR/mesh_stage1.obj
   int test_spp_axis = 2;         // test renders: n x n samples per pixel

@@ -257,17 +257,18 @@ class Stage2 {
           }
           // tone: (1 − cos)², cos = L·c / (|L||c|)
           double tone = 0.0;
+          Vec3f gt(0.0f);
           const float nl = glm::length(L), nc = glm::length(c);
           if (nl > 1e-6f && nc > 1e-6f && w.tone != 0.0f) {
             const float cosv = glm::dot(L, c) / (nl * nc), one = 1.0f - cosv;
             tone = double(one) * one;
             // d cos / dL = c / (|L||c|) − cos · L / |L|²
             const Vec3f dcos = c / (nl * nc) - cosv * L / (nl * nl);
-            g += w.tone / w.color * (-2.0f * one) * dcos;
+            gt = -2.0f * one * dcos;
           }
           color_per_ray[std::size_t(i)] = color;
           tone_per_ray[std::size_t(i)] = tone;
-          dL = w.color * inv_n * g;
+          dL = inv_n * (w.color * g + w.tone * gt);
           return w.color * inv_n * color + w.tone * inv_n * tone;
         },
         grad, po);

@@ -1,0 +1,47 @@
+#!/usr/bin/env bash
+# Stage 2 (materials) on the quick benchmark scenes, after stage 1: for each
+# scene, the environment stage and the materials stage in a copy of the
+# stage-1 run of scripts/stage1_report.sh, plus two bounds rendered from the
+# test cameras with the ground-truth material and the recovered environment —
+# on the stage-1 mesh (the best materials can do on that geometry) and on the
+# true mesh (what the environment allows). Prints a Markdown table.
+#
+#   bash scripts/stage1_report.sh WORK_DIR --only full   # first (or reuse its runs)
+#   bash scripts/stage2_report.sh WORK_DIR [extra reconstruct options...]
+#
+# Needs a built `difftrans` ($DIFFTRANS or build/examples/difftrans), jq and
+# GNU time. Finished runs (their stage2_test/metrics.json) are kept.
+set -euo pipefail
+work=${1:?usage: stage2_report.sh WORK_DIR [reconstruct options...]}
+shift
+here=$(cd "$(dirname "$0")/.." && pwd)
+bin=${DIFFTRANS:-$here/build/examples/difftrans}
+[ -x "$bin" ] || { echo "stage2_report: $bin not found; build first" >&2; exit 1; }
+command -v jq >/dev/null || { echo "stage2_report: jq is needed (apt-get install jq)" >&2; exit 1; }
+scenes="spot-clear bunny-clear horse-green monkey-bands"
+for s in $scenes; do
+  src=$work/runs/$s.full scene=$work/scenes/$s out=$work/stage2/$s
+  [ -f "$src/mesh_stage1.obj" ] || { echo "stage2_report: $src/mesh_stage1.obj missing: run stage1_report.sh first" >&2; exit 1; }
+  if [ ! -f "$out/stage2_test/metrics.json" ]; then
+    rm -rf "$out"; mkdir -p "$work/stage2"; cp -r "$src" "$out"
+    echo "stage2_report: $s" >&2
+    "$bin" reconstruct "$scene" --out "$out" --stages environment >/dev/null 2>"$out.env.log"
+    /usr/bin/time -v "$bin" reconstruct "$scene" --out "$out" --stages materials "$@" >/dev/null 2>"$out.log"
+    for m in stage1 gt; do
+      mesh=$out/mesh_stage1.obj; [ $m = gt ] && mesh=$scene/gt/mesh.obj
+      "$bin" render --mesh "$mesh" --material "$scene/gt/material.json" --env "$out/envmap.hdr" --scene "$scene" \
+        --split test --out "$out/bound_$m" --overwrite >/dev/null 2>>"$out.bounds.log"
+    done
+  fi
+done
+echo "| scene | IoR (true) | IoR error | test PSNR | in-mask PSNR | SSIM | bound: true material on stage-1 mesh (in-mask) | bound: true mesh + material (in-mask) | fit time | peak RSS MB |"
+echo "|---|---|---|---|---|---|---|---|---|---|"
+for s in $scenes; do
+  out=$work/stage2/$s
+  r=$out/reconstruct.json
+  b1=$(jq -r '.psnr_mask * 100 | round / 100' "$out/bound_stage1/metrics.json")
+  b2=$(jq -r '.psnr_mask * 100 | round / 100' "$out/bound_gt/metrics.json")
+  rss=$(grep "Maximum resident set size" "$out.log" | awk '{printf "%.0f", $NF/1024}')
+  jq -r --arg s "$s" --arg b1 "$b1" --arg b2 "$b2" --arg rss "$rss" '.materials as $m |
+    "| \($s) | \($m.ior * 1000 | round / 1000) (\($m.ior_true)) | \($m.ior_error * 1000 | round / 1000) | \($m.test.psnr * 100 | round / 100) | \($m.test.psnr_mask * 100 | round / 100) | \($m.test.ssim * 1000 | round / 1000) | \($b1) | \($b2) | \($m.fit_seconds | round) s | \($rss) |"' "$r"
+done
