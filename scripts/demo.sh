@@ -2,7 +2,9 @@
 # The main job on an embedded default scene: installs the dependencies, builds
 # the difftrans command (Release), renders the spot-clear benchmark scene
 # (test variant), renders its ground truth again from the test cameras and
-# under another environment map (a relight), and evaluates the images.
+# under another environment map (a relight), evaluates the images, then
+# reconstructs it (environment, stage 1, stage 2, short runs) and relights
+# the reconstruction.
 # Usage: scripts/demo.sh [build-dir]   (default: build/release; output in out/demo)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -39,16 +41,25 @@ step "evaluate: the relit images against the scene's test images"
 "$dt" evaluate --pred-images "$out/relight/images" --scene "$out/scene" --out "$out/relight/evaluate.json" |
   grep -E '^  "(psnr|psnr_mask|ssim|count)"'
 
-step "reconstruct: the environment (distant map fitted to the out-of-mask pixels) and stage-1 geometry
-   (FlexiCubes 32³ from the masks, 200 + 200 iterations: a short run; the defaults are 64³, 1000 + 1000)"
-"$dt" reconstruct "$out/scene" --out "$out/reconstruct" --stages environment,geometry --grid 32 \
-  --iterations 200 --refine-iterations 200 --restart |
-  grep -E '"(psnr_background_test|psnr_map_seen|seen_fraction|chamfer|f1|genus)"'
+step "reconstruct: the environment (distant map fitted to the out-of-mask pixels), stage-1 geometry
+   (FlexiCubes 32³ from the masks, 200 + 200 iterations) and stage 2 (IoR and absorption through the
+   tracer, 200 iterations): a short run; the defaults are 64³, 1000 + 1000 and 1000"
+rm -f "$out/reconstruct/reconstruct.json"
+"$dt" reconstruct "$out/scene" --out "$out/reconstruct" --stages environment,geometry,materials --grid 32 \
+  --iterations 200 --refine-iterations 200 --restart --materials-iterations 200 --materials-freeze 60 |
+  grep -E '^ {4,6}"(psnr_background_test|psnr_map_seen|seen_fraction|chamfer|f1|genus|ior|ior_true|psnr|psnr_mask)"'
+
+step "relight: the reconstruction under blouberg_sunrise_2 against the ground truth under it"
+"$dt" relight --mesh "$out/reconstruct/mesh_stage2.obj" --material "$out/reconstruct/material_stage2.json" \
+  --scene "$out/scene" --env "$data/envmaps/blouberg_sunrise_2_1k.hdr" --out "$out/relight_reconstruction" --overwrite |
+  grep -E '"(psnr|psnr_mask|ssim)"' | head -3
 
 echo
 echo "demo: done in $(( $(date +%s) - start )) s. Pictures:"
 echo "  environment        $out/reconstruct/envmap.hdr, $out/reconstruct/environment_comparison.png"
 echo "  geometry           $out/reconstruct/mesh_stage1.obj, stage1_silhouettes.png (mask | silhouette | difference), stage1_loss.svg"
+echo "  materials          $out/reconstruct/material_stage2.json, stage2_loss.svg, stage2_test/contact_sheet.png"
+echo "  relit reconstruction $out/relight_reconstruction/ (contact sheet: truth | reconstruction | error)"
 echo "  scene previews     $out/scene/previews/*.png (masks in $out/scene/masks/)"
 echo "  relit previews     $out/relight/previews/*.png"
 echo "  contact sheet      $out/relight/contact_sheet.png (training-environment image | relit | error)"
