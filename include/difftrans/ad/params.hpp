@@ -112,6 +112,29 @@ class ParamReader<Var<T>> {
     count_ = 0;
   }
 
+  // After the sweep: Σ adjoint² over the logged leaves of one buffer (the
+  // squared norm of this record's gradient w.r.t. that buffer).
+  DT_HOST_DEVICE T adjoint_norm2(int buffer) const {
+    T sum = T(0);
+    for (std::int32_t k = 0; k < count_; ++k)
+      if (log_[k].buffer == buffer) {
+        const T a = tape_->adjoint(Var<T>(T(0), log_[k].node, tape_));
+        sum += a * a;
+      }
+    return sum;
+  }
+
+  // scatter() with one scale per buffer (e.g. a per-ray clip of some buffers' gradient).
+  DT_HOST_DEVICE void scatter_scaled(const T* scale_per_buffer) {
+    for (std::int32_t k = 0; k < count_; ++k) {
+      const LeafRecord& r = log_[k];
+      float* g = set_->buffers[r.buffer].gradient;
+      const T a = tape_->adjoint(Var<T>(T(0), r.node, tape_));
+      if (g && a != T(0)) detail::atomic_add(g + r.index, float(a * scale_per_buffer[r.buffer]));
+    }
+    count_ = 0;
+  }
+
   // Forget the log without scattering (e.g. when the tape is rewound).
   DT_HOST_DEVICE void clear() {
     count_ = 0;

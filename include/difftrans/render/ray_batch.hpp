@@ -6,6 +6,7 @@
 // cosine) allows.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -24,6 +25,7 @@ struct RayBatchResult {
   double loss = 0.0;      // sum of the per-ray losses
   PassStats stats;
   std::vector<Vec3f> radiance;  // per ray, when asked for
+  std::int64_t clipped_rays = 0;  // rays whose vertex gradient was clipped
 };
 
 // For every ray i: L = trace(ray i); loss(i, L, dL) returns the ray's loss and
@@ -31,9 +33,15 @@ struct RayBatchResult {
 // in s.differentiate is added to `grad`. `loss` is called concurrently from
 // the pool's workers (for different i). Rays whose tape overflows contribute
 // their loss but no gradient (counted in stats.overflowed_rays).
+//
+// clip_geometry > 0: each ray's gradient w.r.t. the vertices (positions and
+// normals together) is scaled down to at most that L2 norm before it is
+// added — a robust gradient against the few rays whose deep, chaotic paths
+// carry huge vertex derivatives (RayBatchResult::clipped_rays counts them).
 template <class T = float, class Loss>
 RayBatchResult ray_batch_gradient(const HostScene& s, const std::vector<BatchRay>& rays, Loss&& loss,
-                                  SceneGradient& grad, const PassOptions& opt = {}, bool keep_radiance = false) {
+                                  SceneGradient& grad, const PassOptions& opt = {}, bool keep_radiance = false,
+                                  float clip_geometry = 0.0f) {
   using V = ad::Var<T>;
   RayBatchResult out;
   if (keep_radiance) out.radiance.assign(rays.size(), Vec3f(0.0f));
@@ -43,6 +51,7 @@ RayBatchResult ray_batch_gradient(const HostScene& s, const std::vector<BatchRay
   ThreadPool& pool = ThreadPool::global();
   detail::StatsPerWorker st(pool.size());
   std::vector<double> losses(std::size_t(pool.size()), 0.0);
+  std::vector<std::int64_t> clipped(std::size_t(pool.size()), 0);
   detail::WorkerTapes<T> tapes(pool.size(), opt);
   pool.parallel_for(std::int64_t(rays.size()), 16, [&](std::int64_t b, std::int64_t e, int w) {
     ad::ParamReader<V> reader = tapes.reader(w, &params);
@@ -75,12 +84,24 @@ RayBatchResult ray_batch_gradient(const HostScene& s, const std::vector<BatchRay
       tape->zero_adjoints();
       for (int c = 0; c < 3; ++c) tape->seed(L[c], T(adjoint[c]));
       tape->propagate();
-      reader.scatter();
+      if (clip_geometry > 0.0f) {  // this ray's gradient w.r.t. the vertices (positions and normals), clipped
+        const T n2 = reader.adjoint_norm2(param_positions) + reader.adjoint_norm2(param_normals);
+        T scale[ad::max_param_buffers];
+        for (T& x : scale) x = T(1);
+        if (n2 > T(clip_geometry) * T(clip_geometry)) {
+          scale[param_positions] = scale[param_normals] = T(clip_geometry) / std::sqrt(n2);
+          ++clipped[std::size_t(w)];
+        }
+        reader.scatter_scaled(scale);
+      } else {
+        reader.scatter();
+      }
     }
   });
   grad.fold_normals(s);
   out.stats = st.total();
   for (double l : losses) out.loss += l;
+  for (std::int64_t c : clipped) out.clipped_rays += c;
   return out;
 }
 

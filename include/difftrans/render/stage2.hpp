@@ -86,7 +86,11 @@ struct Stage2Config {
     return t;
   }();
   bool relative_l2 = false;       // true: relative L2 (see the top of the file)
-  float max_ray_loss = 1e3f;      // rays whose colour loss exceeds this are skipped (outliers: sun glints)
+  float max_ray_loss = 1e3f;
+  // Per-ray clip of the vertex gradient: the L2 norm of the gradient of one
+  // ray's own loss w.r.t. the vertices (positions and normals) is capped at
+  // this (ray_batch_gradient's clip_geometry); 0: off. See the note above.
+  float clip_geometry = 1.0f;      // rays whose colour loss exceeds this are skipped (outliers: sun glints)
   Stage2Weights weights;
   std::uint64_t seed = 1;
 };
@@ -97,7 +101,7 @@ struct Stage2Stats {
   float ior = 0.0f;
   Vec3f mean_sigma{0.0f};
   bool geometry_moving = false;
-  std::int64_t rays = 0, skipped_rays = 0, overflowed_rays = 0;
+  std::int64_t rays = 0, skipped_rays = 0, overflowed_rays = 0, clipped_rays = 0;
   double seconds = 0.0, trace_seconds = 0.0;
 };
 
@@ -152,13 +156,12 @@ inline std::pair<double, double> absorption_regularizers(const std::vector<float
 // the recovered environment. The constructor sets the scene's IoR and
 // absorption grid to the configured start; step() runs one iteration.
 //
-// Vertices (optimize_positions) are experimental: on a glass sphere dented by
-// up to 12 %, 100 joint iterations took the mean radius error from 0.0120 to
-// 0.0127 (colour + mask) while mask + edge-normal alone reached 0.0040 — the
-// colour gradient w.r.t. the vertices (mostly through the shading normals and
-// deep refracted paths, issue 3's chaotic-gradient finding) outweighs the
-// silhouettes even at 100× the mask weight. Robust geometry gradients are
-// the open problem; the program keeps the stage-1 mesh unless asked.
+// Vertices (optimize_positions): on a glass sphere dented by up to 12 %, 100
+// joint iterations took the mean radius error from 0.0120 to 0.0127 with the
+// raw colour gradient — a few rays (deep, chaotic paths: issue 3's finding)
+// carry vertex derivatives so large that they decide the step — to 0.0034
+// with the silhouette term alone, and to 0.0023 with each ray's vertex
+// gradient clipped to norm 1 (clip_geometry; 4 % of the rays clipped).
 class Stage2 {
  public:
   Stage2(HostScene& scene, std::vector<Stage2View> views, std::vector<geometry::Stage1View> mask_views,
@@ -271,7 +274,8 @@ class Stage2 {
           dL = inv_n * (w.color * g + w.tone * gt);
           return w.color * inv_n * color + w.tone * inv_n * tone;
         },
-        grad, po);
+        grad, po, false, st.geometry_moving ? config_.clip_geometry * inv_n : 0.0f);
+    st.clipped_rays = rb.clipped_rays;
     st.trace_seconds = std::chrono::duration<double>(clock::now() - t1).count();
     for (std::size_t i = 0; i < rays.size(); ++i) {
       st.color += color_per_ray[i] * inv_n;
