@@ -84,3 +84,33 @@ TEST_CASE("ray_batch_gradient agrees with render_image + render_gradient under a
     for (float v : z.positions) REQUIRE(v == 0.0f);
   }
 }
+
+TEST_CASE("ray_batch_gradient clip_geometry: one ray's vertex gradient is scaled to the cap, other buffers untouched") {
+  dr::HostScene s = dt_test::sphere_scene();
+  s.two_level_normals = false;  // normals from the one-ring: the whole vertex gradient is in `positions`
+  const ds::Camera cam = ds::protocol_camera(Vec3f(0.3f, 0.4f, 0.87f), 24, 24);
+  const ds::Ray r = cam.generate_ray(12, 11);
+  const std::vector<dr::BatchRay> rays{{r.origin, r.direction}};
+  const auto loss = [](std::int32_t, const Vec3f& L, Vec3f& dL) {
+    dL = 2.0f * L;
+    return double(glm::dot(L, L));
+  };
+  dr::PassOptions opt;
+  opt.trace.max_depth = 4;
+  dr::SceneGradient free(s), capped(s), loose(s);
+  dr::ray_batch_gradient(s, rays, loss, free, opt);
+  double norm = 0.0;
+  for (float g : free.positions) norm += double(g) * g;
+  norm = std::sqrt(norm);
+  REQUIRE(norm > 0.0);
+  const float cap = float(0.25 * norm);
+  const dr::RayBatchResult rc = dr::ray_batch_gradient(s, rays, loss, capped, opt, false, cap);
+  CHECK(rc.clipped_rays == 1);
+  for (std::size_t i = 0; i < free.positions.size(); ++i)
+    REQUIRE(capped.positions[i] == doctest::Approx(0.25 * free.positions[i]).epsilon(1e-4).scale(1e-12));
+  CHECK(capped.ior[0] == doctest::Approx(free.ior[0]));
+  CHECK(rel_l2(capped.absorption, free.absorption) < 1e-6);
+  const dr::RayBatchResult rl = dr::ray_batch_gradient(s, rays, loss, loose, opt, false, float(4.0 * norm));
+  CHECK(rl.clipped_rays == 0);
+  CHECK(rel_l2(loose.positions, free.positions) < 1e-6);
+}
