@@ -8,6 +8,7 @@
 #
 #   bash scripts/stage1_report.sh WORK_DIR --only full   # first (or reuse its runs)
 #   bash scripts/stage2_report.sh WORK_DIR [extra reconstruct options...]
+#   STAGE2_TAG=joint bash scripts/stage2_report.sh WORK_DIR --materials-geometry   # runs into WORK_DIR/joint/
 #
 # Needs a built `difftrans` ($DIFFTRANS or build/examples/difftrans), jq and
 # GNU time. Finished runs (their stage2_test/metrics.json) are kept.
@@ -19,11 +20,12 @@ bin=${DIFFTRANS:-$here/build/examples/difftrans}
 [ -x "$bin" ] || { echo "stage2_report: $bin not found; build first" >&2; exit 1; }
 command -v jq >/dev/null || { echo "stage2_report: jq is needed (apt-get install jq)" >&2; exit 1; }
 scenes="spot-clear bunny-clear horse-green monkey-bands"
+tag=${STAGE2_TAG:-stage2}
 for s in $scenes; do
-  src=$work/runs/$s.full scene=$work/scenes/$s out=$work/stage2/$s
+  src=$work/runs/$s.full scene=$work/scenes/$s out=$work/$tag/$s
   [ -f "$src/mesh_stage1.obj" ] || { echo "stage2_report: $src/mesh_stage1.obj missing: run stage1_report.sh first" >&2; exit 1; }
   if [ ! -f "$out/stage2_test/metrics.json" ]; then
-    rm -rf "$out"; mkdir -p "$work/stage2"; cp -r "$src" "$out"
+    rm -rf "$out"; mkdir -p "$work/$tag"; cp -r "$src" "$out"
     echo "stage2_report: $s" >&2
     "$bin" reconstruct "$scene" --out "$out" --stages environment >/dev/null 2>"$out.env.log"
     /usr/bin/time -v "$bin" reconstruct "$scene" --out "$out" --stages materials "$@" >/dev/null 2>"$out.log"
@@ -34,14 +36,14 @@ for s in $scenes; do
     done
   fi
 done
-echo "| scene | IoR (true) | IoR error | test PSNR | in-mask PSNR | SSIM | bound: true material on stage-1 mesh (in-mask) | bound: true mesh + material (in-mask) | fit time | peak RSS MB |"
-echo "|---|---|---|---|---|---|---|---|---|---|"
+echo "| scene | IoR (true) | IoR error | test PSNR | in-mask PSNR | SSIM | CD (stage 1 → 2) | bound: true material on stage-1 mesh (in-mask) | bound: true mesh + material (in-mask) | fit time | peak RSS MB |"
+echo "|---|---|---|---|---|---|---|---|---|---|---|"
 for s in $scenes; do
-  out=$work/stage2/$s
+  out=$work/$tag/$s
   r=$out/reconstruct.json
   b1=$(jq -r '.psnr_mask * 100 | round / 100' "$out/bound_stage1/metrics.json")
   b2=$(jq -r '.psnr_mask * 100 | round / 100' "$out/bound_gt/metrics.json")
   rss=$(grep "Maximum resident set size" "$out.log" | awk '{printf "%.0f", $NF/1024}')
   jq -r --arg s "$s" --arg b1 "$b1" --arg b2 "$b2" --arg rss "$rss" '.materials as $m |
-    "| \($s) | \($m.ior * 1000 | round / 1000) (\($m.ior_true)) | \($m.ior_error * 1000 | round / 1000) | \($m.test.psnr * 100 | round / 100) | \($m.test.psnr_mask * 100 | round / 100) | \($m.test.ssim * 1000 | round / 1000) | \($b1) | \($b2) | \($m.fit_seconds | round) s | \($rss) |"' "$r"
+    "| \($s) | \($m.ior * 1000 | round / 1000) (\($m.ior_true)) | \($m.ior_error * 1000 | round / 1000) | \($m.test.psnr * 100 | round / 100) | \($m.test.psnr_mask * 100 | round / 100) | \($m.test.ssim * 1000 | round / 1000) | \(.geometry.final.chamfer * 1e7 | round / 1e7) → \($m.chamfer * 1e7 | round / 1e7) | \($b1) | \($b2) | \($m.fit_seconds | round) s | \($rss) |"' "$r"
 done
