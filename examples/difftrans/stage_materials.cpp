@@ -33,8 +33,12 @@ void add_materials_options(CLI::App* cmd, MaterialsStageOptions& opt) {
   cmd->add_option("--materials-lr-absorption", opt.lr_absorption, "Materials: absorption learning rate (raw parameters)")
       ->capture_default_str();
   cmd->add_flag("--materials-geometry", opt.geometry,
-                "Materials: also move the vertices (large steps) after the frozen iterations (experimental, see README)");
+                "Materials: also move the vertices (large steps, per-ray clipped gradients) after the warm-up (experimental: on spot-clear it doubled the CD, see README)");
   cmd->add_option("--ior-init", opt.ior_init, "Materials: starting IoR")->capture_default_str();
+  cmd->add_option("--materials-lr-vertices", opt.lr_vertices, "Materials: vertex learning rate (with --materials-geometry)")
+      ->capture_default_str();
+  cmd->add_option("--materials-lambda", opt.lambda, "Materials: large-steps lambda (with --materials-geometry)")
+      ->capture_default_str();
   cmd->add_option("--materials-tone", opt.tone, "Materials: weight of the tone loss (1 - cos(rendered, photo))^2")
       ->capture_default_str();
   cmd->add_option("--absorption-res", opt.absorption_res, "Materials: absorption grid vertices per axis")->capture_default_str();
@@ -101,6 +105,8 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
   cfg.lr_ior = opt.lr_ior;
   cfg.lr_absorption = opt.lr_absorption;
   cfg.weights.tone = opt.tone;
+  cfg.lr_positions = opt.lr_vertices;
+  cfg.lambda = opt.lambda;
   cfg.absorption_res = Vec3i(std::max(2, opt.absorption_res));
   {  // the absorption grid spans the mesh's box, a little grown
     Vec3f lo(1e30f), hi(-1e30f);
@@ -118,6 +124,10 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
   j["lr_ior"] = cfg.lr_ior;
   j["lr_absorption"] = cfg.lr_absorption;
   j["tone_weight"] = cfg.weights.tone;
+  if (cfg.optimize_positions) {
+    j["lr_vertices"] = cfg.lr_positions;
+    j["lambda"] = cfg.lambda;
+  }
 
   progress("materials: " + std::to_string(cfg.iterations) + " iterations over " + std::to_string(views.size()) +
            " views, " + std::to_string(cfg.rays_per_iteration) + " rays each, IoR from " + fixed(cfg.ior_init, 3) +

@@ -73,6 +73,8 @@ struct MaterialsStageOptions {
   float ior_init = 1.5f;
   float lr_ior = 3e-3f;          // after the warm-up (freeze) iterations, which use 1e-4
   float lr_absorption = 0.02f;   // on the raw (softplus) absorption parameters
+  float lr_vertices = 1e-3f;     // large steps / AdamUniform on u = (I + λL) x
+  double lambda = 19.0;          // λ of the large-steps parameterization
   float tone = 0.1f;             // weight of the tone (colour direction) loss; the colour L2 has weight 1
   int absorption_res = 16;       // grid vertices per axis
   std::string mesh;              // default: DIR/mesh_stage1.obj
