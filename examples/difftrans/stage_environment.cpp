@@ -14,6 +14,7 @@
 
 #include "command.hpp"
 #include "stages.hpp"
+#include "stage_output.hpp"
 #include "views.hpp"
 
 #include "difftrans/io/contact_sheet.hpp"
@@ -27,18 +28,6 @@ namespace difftrans::cli {
 namespace {
 
 using clock_type = std::chrono::steady_clock;
-
-std::string fixed(double v, int digits) {
-  char b[64];
-  std::snprintf(b, sizeof(b), "%.*f", digits, v);
-  return b;
-}
-
-double peak_memory_mb() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return double(u.ru_maxrss) / 1024.0;
-}
 
 // "32,64,128": positive integers, each >= min, or a ValidationError naming the option.
 std::vector<int> parse_int_list(const std::string& text, const std::string& option, int min) {

@@ -30,11 +30,6 @@ using clock_type = std::chrono::steady_clock;
 
 double seconds_since(clock_type::time_point t) { return std::chrono::duration<double>(clock_type::now() - t).count(); }
 
-double peak_rss_mb() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return double(u.ru_maxrss) / 1024.0;
-}
 
 void from_io_mesh(const io::Mesh& m, std::vector<float>& pos, std::vector<std::int32_t>& tris) {
   pos.clear();
@@ -385,7 +380,7 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
              fixed(raw_m.chamfer, 6) + " F1 " + fixed(raw_m.f1, 4) + ")");
   }
   j["seconds"] = seconds_since(t_start);
-  j["peak_memory_mb"] = peak_rss_mb();
+  j["peak_memory_mb"] = peak_memory_mb();
   return j;
 }
 

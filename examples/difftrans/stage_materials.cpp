@@ -194,9 +194,7 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
   progress("materials: IoR " + fixed(s.ior, 4) +
            (j.contains("ior_error") ? " (error " + fixed(j["ior_error"].get<double>(), 4) + ")" : std::string()) +
            ", test PSNR " + fixed(j["test"].value("psnr", 0.0), 2) + " dB, fitted in " + duration_text(fit_seconds));
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  j["peak_memory_mb"] = double(u.ru_maxrss) / 1024.0;
+  j["peak_memory_mb"] = peak_memory_mb();
   j["seconds"] = std::chrono::duration<double>(clock::now() - t_start).count();
   return j;
 }

@@ -10,6 +10,7 @@
 #include <string>
 #include <utility>
 #include <vector>
+#include <sys/resource.h>
 
 #include "difftrans/io/mesh.hpp"
 
@@ -20,6 +21,13 @@ inline io::Mesh to_io_mesh(const std::vector<float>& pos, const std::vector<std:
   for (std::size_t i = 0; i + 2 < pos.size(); i += 3) m.positions.emplace_back(pos[i], pos[i + 1], pos[i + 2]);
   for (std::size_t f = 0; f + 2 < tris.size(); f += 3) m.triangles.emplace_back(tris[f], tris[f + 1], tris[f + 2]);
   return m;
+}
+
+// The process's peak resident memory so far, in MB.
+inline double peak_memory_mb() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return double(u.ru_maxrss) / 1024.0;
 }
 
 inline std::string fixed(double v, int digits) {
