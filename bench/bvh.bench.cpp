@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "../tests/support/rays.hpp"
 #include "../tests/support/shapes.hpp"
 #include "difftrans/accel/bvh.hpp"
 #include "difftrans/accel/embree.hpp"
@@ -23,9 +24,7 @@ namespace {
 using difftrans::Vec3f;
 namespace da = difftrans::accel;
 
-struct Ray {
-  Vec3f o, d;
-};
+using Ray = dt_test::IncoherentRay;
 
 struct Workload {
   dt_test::Shape shape;
@@ -33,32 +32,6 @@ struct Workload {
   std::unique_ptr<da::Bvh> bvh;
   std::vector<std::vector<Ray>> sets;
 };
-
-Vec3f random_unit(std::mt19937& rng) {
-  std::normal_distribution<float> n(0.0f, 1.0f);
-  for (;;) {
-    const Vec3f v(n(rng), n(rng), n(rng));
-    const float l = glm::length(v);
-    if (l > 1e-3f) return v / l;
-  }
-}
-
-std::vector<Ray> make_rays(int n, std::uint32_t seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> u(-0.5f, 0.5f);
-  std::vector<Ray> rays(static_cast<std::size_t>(n));
-  for (int i = 0; i < n; ++i) {
-    Ray& r = rays[std::size_t(i)];
-    if (i % 2 == 0) {
-      r.o = 1.2f * random_unit(rng);
-      r.d = glm::normalize(Vec3f(u(rng), u(rng), u(rng)) - r.o);
-    } else {
-      r.o = 0.8f * Vec3f(u(rng), u(rng), u(rng));
-      r.d = random_unit(rng);
-    }
-  }
-  return rays;
-}
 
 Workload& workload(const std::string& name) {
   static std::map<std::string, std::unique_ptr<Workload>> cache;
@@ -69,7 +42,7 @@ Workload& workload(const std::string& name) {
     const auto nv = std::int32_t(w->shape.positions.size() / 3), nt = std::int32_t(w->shape.triangles.size() / 3);
     w->embree = std::make_unique<da::EmbreeScene>(w->shape.positions.data(), nv, w->shape.triangles.data(), nt, name);
     w->bvh = std::make_unique<da::Bvh>(w->shape.positions.data(), nv, w->shape.triangles.data(), nt, name);
-    for (std::uint32_t s = 1; s <= 3; ++s) w->sets.push_back(make_rays(1 << 16, s));
+    for (std::uint32_t s = 1; s <= 3; ++s) w->sets.push_back(dt_test::incoherent_rays(1 << 16, s, false));
   }
   return *w;
 }

@@ -6,6 +6,7 @@
 // gives the same radiance with either intersector.
 #include "support/ad_check.hpp"
 #include "support/scenes.hpp"
+#include "support/rays.hpp"
 #include "support/shapes.hpp"
 
 #include <algorithm>
@@ -24,10 +25,7 @@ using difftrans::accel::RayHit;
 
 namespace {
 
-struct Ray {
-  Vec3f o, d;
-  float tnear, tfar;
-};
+using Ray = IncoherentRay;
 
 Bvh make_bvh(const Shape& s, const std::string& name = "mesh") {
   return Bvh(s.positions.data(), std::int32_t(s.positions.size() / 3), s.triangles.data(),
@@ -46,43 +44,6 @@ Vec3f vertex(const Shape& s, std::int32_t i) {
 Vec3f hit_point(const Shape& s, const RayHit& h) {
   const std::int32_t* t = &s.triangles[3 * std::size_t(h.prim)];
   return (1.0f - h.u - h.v) * vertex(s, t[0]) + h.u * vertex(s, t[1]) + h.v * vertex(s, t[2]);
-}
-
-Vec3f random_unit(std::mt19937& rng) {
-  std::normal_distribution<float> n(0.0f, 1.0f);
-  for (;;) {
-    const Vec3f v(n(rng), n(rng), n(rng));
-    const float l = glm::length(v);
-    if (l > 1e-3f) return v / l;
-  }
-}
-
-// Incoherent rays: from a sphere of radius 1.2 around the unit box towards
-// random points in it (mostly hits, some grazing, some misses), from random
-// points inside the box in random directions, and a quarter of them with a
-// random [tnear, tfar] window.
-std::vector<Ray> random_rays(int n, std::uint32_t seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> u(-0.5f, 0.5f), w(0.0f, 1.0f);
-  std::vector<Ray> rays;
-  for (int i = 0; i < n; ++i) {
-    Ray r;
-    if (i % 2 == 0) {
-      r.o = 1.2f * random_unit(rng);
-      r.d = glm::normalize(Vec3f(u(rng), u(rng), u(rng)) - r.o);
-    } else {
-      r.o = Vec3f(u(rng), u(rng), u(rng)) * 0.8f;
-      r.d = random_unit(rng);
-    }
-    r.tnear = 0.0f;
-    r.tfar = std::numeric_limits<float>::infinity();
-    if (i % 4 == 1) {
-      r.tnear = 0.6f * w(rng);
-      r.tfar = r.tnear + 1.5f * w(rng);
-    }
-    rays.push_back(r);
-  }
-  return rays;
 }
 
 struct Agreement {
@@ -197,7 +158,7 @@ TEST_CASE("spot and bunny: the same hits as Embree on incoherent rays") {
     const Shape s = load_normalized_mesh(std::string(DIFFTRANS_SHARED_DATA_DIR) + "/meshes/" + name);
     const Bvh bvh = make_bvh(s, name);
     const std::unique_ptr<EmbreeScene> em(make_embree(s));
-    const auto rays = random_rays(40000, 11);
+    const auto rays = incoherent_rays(40000, 11, true);
     const Agreement a = compare_with_embree(s, bvh, *em, rays);
     std::printf("%s: %d rays, %d hits, %d hit/miss differ, %d other triangle (tie), %d t, %d uv, %d point off\n",
                 name, a.rays, a.hits, a.hit_miss_differ, a.other_prim, a.bad_t, a.bad_uv, a.bad_point);
@@ -371,7 +332,7 @@ TEST_CASE("refit and rebuild follow moved vertices") {
   bvh.refit(moved.positions.data());
   em->update_positions(moved.positions.data());
   CHECK(bvh.sah_cost() > bvh.built_sah_cost());  // the old tree fits the new shape worse
-  const auto rays = random_rays(20000, 21);
+  const auto rays = incoherent_rays(20000, 21, true);
   Agreement a = compare_with_embree(moved, bvh, *em, rays);
   CHECK(a.hits > a.rays / 4);
   CHECK(a.hit_miss_differ <= 2);
@@ -407,7 +368,7 @@ TEST_CASE("refit and rebuild follow moved vertices") {
   CHECK(only_refit.sah_cost() > 3.0 * up.sah_cost());
   // both answer right; the rebuilt tree does so with less work
   const std::unique_ptr<EmbreeScene> es(make_embree(shuffled));
-  const auto soup_rays = random_rays(5000, 22);
+  const auto soup_rays = incoherent_rays(5000, 22, true);
   const Agreement s1 = compare_with_embree(shuffled, up, *es, soup_rays);
   const Agreement s2 = compare_with_embree(shuffled, only_refit, *es, soup_rays);
   CHECK(s1.hits > 100);
