@@ -38,7 +38,7 @@ Workload& workload(const std::string& name) {
   auto& w = cache[name];
   if (!w) {
     w = std::make_unique<Workload>();
-    w->shape = dt_test::load_normalized_mesh(std::string(DIFFTRANS_SHARED_DATA_DIR) + "/meshes/" + name + ".obj");
+    w->shape = dt_test::load_normalized_mesh(std::string(DIFFTRANS_DATA_DIR) + "/meshes/" + name + ".obj");
     const auto nv = std::int32_t(w->shape.positions.size() / 3), nt = std::int32_t(w->shape.triangles.size() / 3);
     w->embree = std::make_unique<da::EmbreeScene>(w->shape.positions.data(), nv, w->shape.triangles.data(), nt, name);
     w->bvh = std::make_unique<da::Bvh>(w->shape.positions.data(), nv, w->shape.triangles.data(), nt, name);

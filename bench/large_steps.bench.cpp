@@ -103,7 +103,7 @@ void optimizer_step(benchmark::State& state) {
 }
 
 const dt_test::Shape& spot() {
-  static const dt_test::Shape s = dt_test::load_normalized_mesh(DIFFTRANS_SHARED_DATA_DIR "/meshes/spot.obj");
+  static const dt_test::Shape s = dt_test::load_normalized_mesh(DIFFTRANS_DATA_DIR "/meshes/spot.obj");
   return s;
 }
 

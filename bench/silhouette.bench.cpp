@@ -33,7 +33,7 @@ const Subject& subject(const std::string& name) {
   s = std::make_unique<Subject>();
   dt_test::Shape shape;
   try {
-    shape = dt_test::load_normalized_mesh(std::string(DIFFTRANS_SHARED_DATA_DIR) + "/meshes/" + name + ".obj");
+    shape = dt_test::load_normalized_mesh(std::string(DIFFTRANS_DATA_DIR) + "/meshes/" + name + ".obj");
   } catch (const std::exception&) {
     std::fprintf(stderr, "silhouette bench: %s.obj not found, using an icosphere\n", name.c_str());
     shape = dt_test::make_icosphere(0.5f, name == "spot" ? 4 : 6);

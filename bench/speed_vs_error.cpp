@@ -178,7 +178,7 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  const std::string data = DIFFTRANS_SHARED_DATA_DIR;
+  const std::string data = DIFFTRANS_DATA_DIR;
   difftrans::io::Mesh m = difftrans::io::read_mesh(data + "/meshes/" + mesh_name + ".obj");
   difftrans::io::normalize_to_unit_box(m);
   std::vector<float> p;

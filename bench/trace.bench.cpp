@@ -1,4 +1,4 @@
-// The tracer against its limit. On spot, bunny and horse (shared/data,
+// The tracer against its limit. On spot, bunny and horse (data/,
 // normalized), the camera rays of a 256² protocol view that hit the object
 // are traced single-threaded at depth 4 and 8:
 //   embree    Embree alone on exactly the segments the tracer intersects
@@ -45,7 +45,7 @@ Workload& workload(const std::string& name) {
   auto it = cache.find(name);
   if (it != cache.end()) return it->second;
   Workload& w = cache[name];
-  difftrans::io::Mesh m = difftrans::io::read_mesh(std::string(DIFFTRANS_SHARED_DATA_DIR) + "/meshes/" + name + ".obj");
+  difftrans::io::Mesh m = difftrans::io::read_mesh(std::string(DIFFTRANS_DATA_DIR) + "/meshes/" + name + ".obj");
   difftrans::io::normalize_to_unit_box(m);
   std::vector<float> p;
   std::vector<std::int32_t> t;

@@ -3,6 +3,9 @@
 include(CMakePackageConfigHelpers)
 
 install(DIRECTORY include/difftrans DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+# the presets' meshes and environment maps, where an installed difftrans
+# command looks for them (examples/difftrans/views.hpp: data_dir)
+install(DIRECTORY data/ DESTINATION ${CMAKE_INSTALL_DATADIR}/difftrans/data)
 install(TARGETS difftrans EXPORT difftransTargets)
 install(EXPORT difftransTargets NAMESPACE difftrans:: DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/difftrans)
 

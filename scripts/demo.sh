@@ -11,7 +11,7 @@ cd "$(dirname "$0")/.."
 build=${1:-build/release}
 jobs=$(nproc 2>/dev/null || echo 2)
 out=out/demo
-data=${DIFFTRANS_DATA:-../shared/data}
+data=${DIFFTRANS_DATA:-data}
 start=$(date +%s)
 
 bash scripts/install-deps.sh

@@ -27,7 +27,7 @@ seed() {  # seed corpus per target
   mkdir -p "$dir"
   case $kind in
     mesh_obj)
-      head -c 4000 ../shared/data/meshes/spot.obj > "$dir/spot_head.obj" 2>/dev/null || true
+      head -c 4000 data/meshes/spot.obj > "$dir/spot_head.obj" 2>/dev/null || true
       printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 3/1/1 4//2\nf -1 -2 -3\n' > "$dir/small.obj" ;;
     mesh_ply)
       printf 'ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n' > "$dir/tri_ascii.ply"

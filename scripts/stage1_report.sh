@@ -25,7 +25,7 @@ scene() {  # scene NAME: synthesize the quick variant once
   [ -f "$dir/scene.json" ] && return
   if [ "$name" = holes-5 ]; then
     "$bin" shape holes-5 --out "$work/holes-5.obj" >/dev/null
-    "$bin" synth --mesh "$work/holes-5.obj" --ior 1.5 --env "$here/../shared/data/envmaps/blouberg_sunrise_2_1k.hdr" \
+    "$bin" synth --mesh "$work/holes-5.obj" --ior 1.5 --env "${DIFFTRANS_DATA:-$here/data}/envmaps/blouberg_sunrise_2_1k.hdr" \
       --variant quick --out "$dir" 2>"$work/$name.synth.log"
   else
     "$bin" synth --preset "$name" --variant quick --out "$dir" 2>"$work/$name.synth.log"

@@ -147,8 +147,9 @@ void add_relight(CLI::App& app) {
       ->check(CLI::Range(1, render::max_trace_depth));
   cmd->add_option("--spp-axis", o->spp_axis, "n: n x n samples per pixel")->capture_default_str()->check(CLI::Range(1, 64));
   cmd->add_option("--sheet-rows", o->sheet_rows, "views in each contact sheet")->capture_default_str()->check(CLI::Range(1, 64));
-  cmd->add_option("--data", o->data, "shared data folder with envmaps/ (default: $DIFFTRANS_DATA or " +
-                                         std::string(DIFFTRANS_DEFAULT_DATA_DIR) + ")");
+  cmd->add_option("--data", o->data,
+                  "data folder with envmaps/ (default: $DIFFTRANS_DATA, else the data/ folder of the "
+                  "difftrans sources or installation)");
   cmd->add_option("--out", o->out, "output folder")->required();
   cmd->add_flag("--overwrite", o->overwrite, "replace an existing, non-empty --out");
   cmd->callback([o] { run(*o); });

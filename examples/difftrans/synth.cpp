@@ -256,8 +256,9 @@ void add_synth(CLI::App& app) {
   cmd->add_flag("--room", o->room, "place the object in a textured box room (near-field environment) instead of --env");
   cmd->add_option("--room-size", o->room_size, "edge length of the room (--room)")->capture_default_str()
       ->check(CLI::Range(0.0, 1000.0));
-  cmd->add_option("--data", o->data, "shared data folder with meshes/ and envmaps/ (default: $DIFFTRANS_DATA or " +
-                                         std::string(DIFFTRANS_DEFAULT_DATA_DIR) + ")");
+  cmd->add_option("--data", o->data,
+                  "data folder with meshes/ and envmaps/ (default: $DIFFTRANS_DATA, else the data/ folder of the "
+                  "difftrans sources or installation)");
   cmd->callback([o] { run(*o); });
 }
 

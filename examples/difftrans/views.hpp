@@ -22,7 +22,7 @@
 #include "difftrans/scene/room.hpp"
 
 #ifndef DIFFTRANS_DEFAULT_DATA_DIR
-#define DIFFTRANS_DEFAULT_DATA_DIR "../shared/data"
+#define DIFFTRANS_DEFAULT_DATA_DIR "data"
 #endif
 
 namespace difftrans::cli {
@@ -33,12 +33,22 @@ namespace fs = std::filesystem;
 // are tone-mapped per PROTOCOL.md.
 inline constexpr const char* linear_extension = ".exr";
 
-// The shared data folder (meshes/, envmaps/): --data, else $DIFFTRANS_DATA,
-// else the ../shared/data next to the source tree this command was built from.
+// The data folder (meshes/, envmaps/; data/README.md): --data, else
+// $DIFFTRANS_DATA, else the data/ of the source tree this command was built
+// from, else the installed copy (PREFIX/share/difftrans/data beside
+// PREFIX/bin/difftrans).
 inline fs::path data_dir(const std::string& option) {
   if (!option.empty()) return option;
   if (const char* env = std::getenv("DIFFTRANS_DATA"); env && *env) return env;
-  return DIFFTRANS_DEFAULT_DATA_DIR;
+  const fs::path built_from = DIFFTRANS_DEFAULT_DATA_DIR;
+  if (fs::is_directory(built_from)) return built_from;
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (!ec) {
+    const fs::path installed = exe.parent_path().parent_path() / "share" / "difftrans" / "data";
+    if (fs::is_directory(installed)) return installed;
+  }
+  return built_from;
 }
 
 // "R,G,B" (three finite numbers) or throws CLI::ValidationError naming the option.

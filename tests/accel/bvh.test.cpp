@@ -1,5 +1,5 @@
 // Portable BVH against Embree (an independent implementation) on the same
-// rays: spot and bunny from shared/data, rays from outside and inside, with
+// rays: spot and bunny from data/, rays from outside and inside, with
 // tnear/tfar windows; the analytic cube; rays through edges and vertices of
 // closed meshes never slip through; degenerate triangles never reported; bad
 // input rejected; refit and rebuild; tree invariants; and the generic tracer
@@ -155,7 +155,7 @@ TEST_CASE("closest hits on a cube: distance, barycentrics, inside rays, tnear an
 TEST_CASE("spot and bunny: the same hits as Embree on incoherent rays") {
   for (const char* name : {"spot.obj", "bunny.obj"}) {
     CAPTURE(name);
-    const Shape s = load_normalized_mesh(std::string(DIFFTRANS_SHARED_DATA_DIR) + "/meshes/" + name);
+    const Shape s = load_normalized_mesh(std::string(DIFFTRANS_DATA_DIR) + "/meshes/" + name);
     const Bvh bvh = make_bvh(s, name);
     const std::unique_ptr<EmbreeScene> em(make_embree(s));
     const auto rays = incoherent_rays(40000, 11, true);
@@ -199,7 +199,7 @@ TEST_CASE("rays through edges and vertices of closed meshes never slip through")
   total = 0;
   CHECK(slipping_rays(ico, make_bvh(ico), &ico_inside, &total) == 0);
   CHECK(total > 2000);
-  const Shape spot = load_normalized_mesh(std::string(DIFFTRANS_SHARED_DATA_DIR) + "/meshes/spot.obj");
+  const Shape spot = load_normalized_mesh(std::string(DIFFTRANS_DATA_DIR) + "/meshes/spot.obj");
   total = 0;
   CHECK(slipping_rays(spot, make_bvh(spot, "spot"), nullptr, &total) == 0);
   CHECK(total > 20000);
@@ -297,7 +297,7 @@ TEST_CASE("tree invariants: every triangle once, boxes enclose, bounded depth") 
     CHECK(bvh.depth() <= difftrans::accel::bvh_max_depth);
     return leaves;
   };
-  const Shape spot = load_normalized_mesh(std::string(DIFFTRANS_SHARED_DATA_DIR) + "/meshes/spot.obj");
+  const Shape spot = load_normalized_mesh(std::string(DIFFTRANS_DATA_DIR) + "/meshes/spot.obj");
   const Bvh b = make_bvh(spot);
   CHECK(check_tree(b, spot) >= int(spot.triangles.size() / 3 / 4));
   CHECK(b.depth() < 30);
@@ -314,7 +314,7 @@ TEST_CASE("tree invariants: every triangle once, boxes enclose, bounded depth") 
 }
 
 TEST_CASE("refit and rebuild follow moved vertices") {
-  const Shape spot = load_normalized_mesh(std::string(DIFFTRANS_SHARED_DATA_DIR) + "/meshes/spot.obj");
+  const Shape spot = load_normalized_mesh(std::string(DIFFTRANS_DATA_DIR) + "/meshes/spot.obj");
   Bvh bvh = make_bvh(spot);
   const std::unique_ptr<EmbreeScene> em(make_embree(spot));
   // a smooth deformation: twist and stretch, so boxes must grow and shrink

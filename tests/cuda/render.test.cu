@@ -151,7 +151,7 @@ int main() {
   }
   int failures = compare_scene("sphere", dt_test::make_icosphere(0.5f, 3));
   failures += compare_scene(
-      "spot", dt_test::load_normalized_mesh(std::string(DIFFTRANS_SHARED_DATA_DIR) + "/meshes/spot.obj"));
+      "spot", dt_test::load_normalized_mesh(std::string(DIFFTRANS_DATA_DIR) + "/meshes/spot.obj"));
   failures += compare_local_tapes();
   std::printf("%s\n", failures == 0 ? "all device results agree with the host" : "device results differ");
   return failures == 0 ? 0 : 1;

@@ -224,7 +224,7 @@ TEST_CASE("closest point on a triangle against dense sampling") {
 }
 
 TEST_CASE("ClosestPointTree agrees with brute force") {
-  const dt_test::Shape spot = dt_test::load_normalized_mesh(DIFFTRANS_SHARED_DATA_DIR "/meshes/spot.obj");
+  const dt_test::Shape spot = dt_test::load_normalized_mesh(DIFFTRANS_DATA_DIR "/meshes/spot.obj");
   const ClosestPointTree tree(spot.positions, spot.triangles);
   std::mt19937 rng(9);
   std::uniform_real_distribution<float> u(-0.8f, 0.8f);
@@ -245,7 +245,7 @@ TEST_CASE("ClosestPointTree agrees with brute force") {
 }
 
 TEST_CASE("remeshing spot") {
-  const dt_test::Shape spot = dt_test::load_normalized_mesh(DIFFTRANS_SHARED_DATA_DIR "/meshes/spot.obj");
+  const dt_test::Shape spot = dt_test::load_normalized_mesh(DIFFTRANS_DATA_DIR "/meshes/spot.obj");
   check_remesh(spot, 0.02f, 0.6, "spot, L = 0.02");
   check_remesh(spot, 0.04f, 0.75, "spot, L = 0.04");
 }

@@ -21,7 +21,7 @@ TEST_CASE("HDR: write then read within RGBE precision (8-bit mantissa per pixel)
 }
 
 TEST_CASE("HDR: the shared environment maps read") {
-  const fs::path path = fs::path(DIFFTRANS_SHARED_DATA_DIR) / "envmaps" / "venice_sunset_1k.hdr";
+  const fs::path path = fs::path(DIFFTRANS_DATA_DIR) / "envmaps" / "venice_sunset_1k.hdr";
   if (!fs::exists(path)) return;
   const io::Image env = io::read_hdr(path);
   CHECK(env.width == 1024);

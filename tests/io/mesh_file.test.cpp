@@ -23,7 +23,7 @@ TEST_CASE("round trip through both formats by extension") {
 
 TEST_CASE("the shared meshes are closed 2-manifolds: read without warnings") {
   for (const char* name : {"spot", "bunny"}) {
-    const fs::path path = fs::path(DIFFTRANS_SHARED_DATA_DIR) / "meshes" / (std::string(name) + ".obj");
+    const fs::path path = fs::path(DIFFTRANS_DATA_DIR) / "meshes" / (std::string(name) + ".obj");
     if (!fs::exists(path)) {
       MESSAGE("skipped: " << path << " not present");
       continue;

@@ -304,7 +304,7 @@ TEST_CASE("gradients match central finite differences in double") {
     check_against_differences(s, rays_towards_centre(Vec3f(0.2f, 0.6f, 3.0f), 0.2f, 5), ts, "cube");
   }
   SUBCASE("spot") {
-    const Shape spot = load_normalized_mesh(std::string(DIFFTRANS_SHARED_DATA_DIR) + "/meshes/spot.obj");
+    const Shape spot = load_normalized_mesh(std::string(DIFFTRANS_DATA_DIR) + "/meshes/spot.obj");
     HostScene s = make_scene(spot, 1.472f);
     smooth_environment(s);
     s.set_homogeneous_absorption(Vec3f(0.3f, 0.6f, 1.2f));
