@@ -1,12 +1,13 @@
 // difftrans export --format mitsuba: a Mitsuba 3 scene (scene.xml, version
 // 3.0.0) that renders what difftrans render renders: the mesh beside it with a
 // dielectric BSDF and, when absorbing, a purely absorbing homogeneous interior
-// medium; the environment as an envmap (or constant) emitter turned to match
-// our equirectangular convention; each camera as a perspective sensor; a path
+// medium; the environment as an envmap (or constant) emitter, resampled and
+// turned to match our equirectangular convention; each camera as a perspective sensor; a path
 // (or, with a medium, volpath) integrator of the same depth. Every file is
 // referenced relative to scene.xml.
 #include "export.hpp"
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -44,9 +45,9 @@ std::string xml_escape(const std::string& s) {
   }
   return out;
 }
-// A comment may not contain "--".
+// Text for a comment: as it is, except that a comment may not contain "--".
 std::string comment_text(const std::string& s) {
-  std::string out = xml_escape(s);
+  std::string out = s;
   for (std::size_t p; (p = out.find("--")) != std::string::npos;) out.replace(p, 2, "- -");
   return out;
 }
@@ -81,28 +82,52 @@ std::string sensor_id(const std::string& name, std::set<std::string>& used) {
   return unique;
 }
 
+// The map resampled for Mitsuba's envmap. Both interpolate bilinearly and
+// wrap in u with texel centres at u = (col + 0.5) / width, but Mitsuba puts
+// row j at v = j / (rows - 1), the poles on the first and last rows, where
+// ours puts row r at v = (r + 0.5) / height and holds the first and last rows
+// constant within half a texel of the poles. Ours is linear in v between the
+// knots 0, 0.5/h, 1.5/h, ..., 1: the 2h + 1 rows at v = k / (2h) (our rows at
+// odd k, the means of two neighbours at even k, our first and last rows at
+// the poles) make Mitsuba's lookup equal to ours.
+io::Image mitsuba_envmap(const io::Image& map) {
+  const int w = map.width, h = map.height;
+  io::Image out(w, 2 * h + 1);
+  for (int k = 0; k <= 2 * h; ++k)
+    for (int x = 0; x < w; ++x) {
+      Vec3f c;
+      if (k % 2 == 1) c = map.at(x, (k - 1) / 2);
+      else if (k == 0) c = map.at(x, 0);
+      else if (k == 2 * h) c = map.at(x, h - 1);
+      else c = Vec3f(0.5 * (Vec3d(map.at(x, k / 2 - 1)) + Vec3d(map.at(x, k / 2))));
+      out.set(x, k, c);
+    }
+  return out;
+}
+
 }  // namespace
 
 io::Json write_mitsuba(const ExportInput& in, const AbsorptionSummary& absorption, const fs::path& dir) {
   io::Json files = io::Json::object();
-  // the mesh, as read (Mitsuba computes vertex normals for a mesh file without them)
+  // the mesh with the renderer's vertex normals (PLY); an OBJ without them, Mitsuba computes its own
   const std::string mesh_name = "mesh." + in.mesh_format;
-  io::write_mesh(dir / mesh_name, in.mesh);
+  if (in.mesh_format == "ply") {
+    const std::vector<Vec3f> normals = export_vertex_normals(in.mesh);
+    io::write_ply(dir / mesh_name, in.mesh, false, &normals);
+  } else {
+    warn("mitsuba: " + mesh_name + " carries no vertex normals; Mitsuba computes its own (angle-weighted), so the "
+         "shading differs slightly from difftrans render's (--mesh-format ply keeps them)");
+    io::write_mesh(dir / mesh_name, in.mesh);
+  }
   files["mesh"] = mesh_name;
 
-  // the environment: a map file copied (.hdr, .exr) or converted (to .exr), or a constant
-  std::string env_name;
-  if (in.env && !in.env->file.empty()) {
-    const std::string ext = io::detail::lower_extension(in.env->file);
-    if (ext == ".hdr" || ext == ".exr") {
-      env_name = "envmap" + ext;
-      std::error_code ec;
-      fs::copy_file(in.env->file, dir / env_name, fs::copy_options::overwrite_existing, ec);
-      if (ec) throw io::Error(dir / env_name, "cannot copy " + in.env->file.string() + ": " + ec.message());
-    } else {
-      env_name = "envmap.exr";
-      io::write_image(dir / env_name, in.env->map);
-    }
+  // the environment map, resampled to Mitsuba's rows (float OpenEXR), or a constant
+  const std::string env_name = in.env && !in.env->file.empty() ? "envmap.exr" : "";
+  if (!env_name.empty()) {
+    if (in.env->map.width % 2 != 0)
+      warn("mitsuba: " + in.env->file.string() + " has an odd width (" + std::to_string(in.env->map.width) +
+           "): the half turn that aligns Mitsuba's u with ours is off by half a texel");
+    io::write_image(dir / env_name, mitsuba_envmap(in.env->map));
     files["environment"] = env_name;
   }
 
@@ -123,7 +148,8 @@ io::Json write_mitsuba(const ExportInput& in, const AbsorptionSummary& absorptio
 
   // environment
   if (!env_name.empty()) {
-    x << "  <!-- Equirectangular map, +Y up. Ours puts -Z at the centre, u = 0.5 + atan2(x, -z) / 2pi; Mitsuba's\n"
+    x << "  <!-- " << comment_text(in.env->file.string()) << ", equirectangular, +Y up, its rows resampled to Mitsuba's\n"
+      << "       (row j at v = j / (rows - 1)). Ours puts -Z at the centre, u = 0.5 + atan2(x, -z) / 2pi; Mitsuba's\n"
       << "       lookup puts it on the seam, u = atan2(x, -z) / 2pi: a half turn about +Y maps one onto the other. -->\n"
       << "  <emitter type=\"envmap\">\n"
       << "    <string name=\"filename\" value=\"" << xml_escape(env_name) << "\"/>\n"
@@ -143,10 +169,15 @@ io::Json write_mitsuba(const ExportInput& in, const AbsorptionSummary& absorptio
     << "    <float name=\"ext_ior\" value=\"1\"/>\n"
     << "  </bsdf>\n";
   if (medium) {
-    x << "  <!-- " << comment_text(absorption.how) << ": sigma_t per unit length of the mesh's coordinates;\n"
-      << "       albedo 0: it absorbs and does not scatter (Beer-Lambert, as difftrans renders it). -->\n"
+    // Mitsuba reads an RGB sigma_t as a reflectance (each channel in [0, 1]): the largest channel goes to scale
+    const Vec3d& sigma = absorption.sigma;
+    const double scale = std::max(sigma.x, std::max(sigma.y, sigma.z));
+    x << "  <!-- " << comment_text(absorption.how) << ": sigma = sigma_t * scale = (" << rgb_text(sigma) << ")\n"
+      << "       per unit length of the mesh's coordinates; albedo 0: it absorbs and does not scatter\n"
+      << "       (Beer-Lambert, as difftrans renders it). -->\n"
       << "  <medium type=\"homogeneous\" id=\"interior\">\n"
-      << "    <rgb name=\"sigma_t\" value=\"" << rgb_text(absorption.sigma) << "\"/>\n"
+      << "    <rgb name=\"sigma_t\" value=\"" << rgb_text(sigma / scale) << "\"/>\n"
+      << "    <float name=\"scale\" value=\"" << num(scale) << "\"/>\n"
       << "    <rgb name=\"albedo\" value=\"0, 0, 0\"/>\n"
       << "  </medium>\n";
   } else if (absorption.type != "none") {

@@ -141,7 +141,13 @@ int main(int argc, char** argv) {
   expect(integrator == (absorbing ? "volpath" : "path"), "integrator '" + integrator + "' for a " +
                                                              (absorbing ? "medium" : "scene without a medium"));
   if (!medium.empty()) {
-    const std::vector<double> sigma = numbers(property(medium, "rgb", "sigma_t"));
+    std::vector<double> sigma = numbers(property(medium, "rgb", "sigma_t"));
+    const std::string scale_text = property(medium, "float", "scale");
+    const std::vector<double> scale = numbers(scale_text.empty() ? "1" : scale_text);
+    expect(scale.size() == 1, "the medium's scale is not a number");
+    for (double& v : sigma) v *= scale.empty() ? 1.0 : scale[0];
+    expect(std::all_of(sigma.begin(), sigma.end(), [&](double v) { return v >= 0 && v <= scale[0] * (1 + 1e-9); }),
+           "sigma_t is not in [0, 1] (Mitsuba reads RGB values as reflectances)");
     const std::vector<double> albedo = numbers(property(medium, "rgb", "albedo"));
     expect(albedo == std::vector<double>{0, 0, 0}, "the medium's albedo is not 0");
     expect(sigma.size() == 3, "sigma_t is not 3 numbers");
