@@ -221,6 +221,8 @@ ExportInput gather(const ExportOptions& o) {
   if (material_given(o.material)) {
     in.material = o.material.resolve();
     in.material_source = o.material.material_file.empty() ? "command-line options" : o.material.material_file;
+    if (!o.recon.empty() && fs::is_regular_file(recon / "material_stage2.json", ec))
+      progress("export: the material of the options replaces " + (recon / "material_stage2.json").string());
   } else if (!o.recon.empty() && fs::is_regular_file(recon / "material_stage2.json", ec)) {
     in.material = io::read_material(recon / "material_stage2.json");
     in.material_source = (recon / "material_stage2.json").string();

@@ -1,17 +1,19 @@
 // Test of difftrans export --format mitsuba: parses scene.xml with pugixml and
 // checks that it is well-formed, uses only the elements and plugin types the
 // exporter writes, references only files that are present beside it (by
-// relative paths) and ids it defines, and agrees with the material (IoR; an
-// absorbing medium exactly when the material absorbs, sigma_t its sigma or,
-// for a grid, within its range) and with the scene's cameras (one sensor per
-// view of the split: looking where the camera looks, image right where its
-// right is, the same horizontal field of view and film size).
+// relative paths) and ids it defines, gives a PLY mesh its vertex normals,
+// and agrees with the material (IoR; an absorbing medium exactly when the
+// material absorbs, sigma_t · scale its sigma or, for a grid, within its
+// range) and with the scene's cameras (one sensor per view of the split:
+// looking where the camera looks, image right where its right is, the same
+// horizontal field of view and film size).
 // Prints "check_mitsuba_xml: ok" or the failures, and exits non-zero on any.
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <limits>
 #include <map>
@@ -170,6 +172,15 @@ int main(int argc, char** argv) {
     }
   }
   expect(!root.child("emitter").empty(), "no emitter");
+  // a PLY mesh carries the renderer's vertex normals (Mitsuba would compute others)
+  if (std::string(shape.attribute("type").value()) == "ply") {
+    const fs::path ply = fs::path(xml).parent_path() / property(shape, "string", "filename");
+    std::ifstream in(ply, std::ios::binary);
+    std::string header;
+    for (std::string line; std::getline(in, line) && line != "end_header";) header += line + "\n";
+    expect(header.find("property float nx\nproperty float ny\nproperty float nz\n") != std::string::npos,
+           ply.string() + " has no vertex normals");
+  }
 
   // sensors against the scene's cameras
   std::vector<pugi::xml_node> sensors;
