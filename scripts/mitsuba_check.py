@@ -15,7 +15,7 @@ PSNR falls below --min-psnr.
 
 Usage: scripts/mitsuba_check.py [--difftrans build/release/examples/difftrans]
            [--preset horse-green] [--work /tmp/mitsuba_check] [--spp 1024]
-           [--variant scalar_rgb] [--resolution 64] [--test-views 4] [--env MAP|preset]
+           [--variant scalar_rgb] [--resolution 96] [--test-views 4] [--env MAP|preset]
 """
 import argparse
 import json
@@ -50,12 +50,12 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--difftrans", default="build/release/examples/difftrans")
     ap.add_argument("--preset", default="horse-green", help="synth preset (spot-clear, bunny-clear, horse-green, monkey-bands)")
-    ap.add_argument("--env", default="data/envmaps/royal_esplanade_1k.hdr",
+    ap.add_argument("--env", default="data/envmaps/blouberg_sunrise_2_1k.hdr",
                     help="environment map for synth ('preset': the preset's own; a sun makes both renderers noisy)")
     ap.add_argument("--work", default="/tmp/mitsuba_check")
     ap.add_argument("--spp", type=int, default=1024, help="Mitsuba samples per pixel")
     ap.add_argument("--variant", default="scalar_rgb", help="Mitsuba variant (scalar_rgb, llvm_ad_rgb, ...)")
-    ap.add_argument("--resolution", type=int, default=64)
+    ap.add_argument("--resolution", type=int, default=96)
     ap.add_argument("--test-views", type=int, default=4)
     ap.add_argument("--max-depth", type=int, default=16)
     ap.add_argument("--spp-axis", type=int, default=16, help="difftrans render: n x n samples per pixel")
