@@ -14,7 +14,8 @@
   X(reconstruct)              \
   X(evaluate)                 \
   X(info)                     \
-  X(shape)
+  X(shape)                    \
+  X(export)
 
 namespace difftrans::cli {
 #define DIFFTRANS_DECLARE(name) void add_##name(CLI::App& app);
