@@ -8,7 +8,7 @@ It synthesizes a small scene (difftrans synth), exports its ground truth as a
 Mitsuba 3 scene (difftrans export --mesh/--material/--env/--scene), renders the
 test cameras with difftrans render and with Mitsuba (one render per sensor of
 scene.xml), and compares them with difftrans evaluate (PSNR over the image and
-inside the object's mask, on the tone-mapped images of PROTOCOL.md). Writes
+inside the object's mask, on the tone-mapped images of docs/metrics.md). Writes
 WORK/side_by_side.png (rows: difftrans | Mitsuba | 4 x |difference|) and
 WORK/comparison.json, prints the figures, and exits non-zero when the mean
 PSNR falls below --min-psnr.
