@@ -2,10 +2,10 @@
 // cycled set of 4096 inputs, as float, Dual<float,1>, Dual<float,8> and
 // Var<float> (record + backward), so the gradient-to-primal cost ratio reads
 // off one run. Target: reverse mode within 4x of the float primal.
-#include "difftrans/cuda/optics_probe.hpp"
+#include "../tests/support/optics_probe.hpp"
 #include "support/ratio_reporter.hpp"
 
-namespace dc = difftrans::cuda;
+namespace dc = dt_test;
 namespace ad = difftrans::ad;
 
 namespace {

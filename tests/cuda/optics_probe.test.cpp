@@ -3,27 +3,27 @@
 // central finite differences in double.
 #include "support/ad_check.hpp"
 
-#include "difftrans/cuda/optics_probe.hpp"
+#include "support/optics_probe.hpp"
 
 using namespace dt_test;
-using difftrans::cuda::OpticsItem;
-using difftrans::cuda::OpticsResult;
+using dt_test::OpticsItem;
+using dt_test::OpticsResult;
 
 namespace {
 double probe_double(const OpticsItem& it, double eta, const double sigma[3]) {
-  return difftrans::cuda::optics_probe(it, eta, Vec3d(sigma[0], sigma[1], sigma[2]));
+  return dt_test::optics_probe(it, eta, Vec3d(sigma[0], sigma[1], sigma[2]));
 }
 }  // namespace
 
 TEST_CASE("probe: every scalar agrees, gradients match finite differences") {
-  const auto items = difftrans::cuda::make_optics_items(500, 7);
-  ad::Tape<float> tape(difftrans::cuda::optics_probe_tape_capacity);
+  const auto items = dt_test::make_optics_items(500, 7);
+  ad::Tape<float> tape(dt_test::optics_probe_tape_capacity);
   int tir = 0;
   for (const OpticsItem& it : items) {
-    const OpticsResult f = difftrans::cuda::optics_probe_gradient<float>(it);
-    const OpticsResult d1 = difftrans::cuda::optics_probe_gradient<ad::Dual<float, 1>>(it);
-    const OpticsResult d4 = difftrans::cuda::optics_probe_gradient<ad::Dual<float, 4>>(it);
-    const OpticsResult v = difftrans::cuda::optics_probe_gradient<ad::Var<float>>(it, &tape);
+    const OpticsResult f = dt_test::optics_probe_gradient<float>(it);
+    const OpticsResult d1 = dt_test::optics_probe_gradient<ad::Dual<float, 1>>(it);
+    const OpticsResult d4 = dt_test::optics_probe_gradient<ad::Dual<float, 4>>(it);
+    const OpticsResult v = dt_test::optics_probe_gradient<ad::Var<float>>(it, &tape);
     REQUIRE_FALSE(tape.overflowed());
     CHECK(std::isfinite(f.value));
     CHECK(d1.value == f.value);

@@ -45,8 +45,9 @@ struct PassStats {
 
 namespace detail {
 
-// Calls f(pixel, origin, direction, weight) for every sample of every pixel
-// of rows [y0, y1).
+// Calls f(pixel, origin, direction, weight) for each of the n × n stratified
+// samples (stratum centres) of every pixel index in [p0, p1) (row-major:
+// pixel = y · width + x); weight = 1 / n².
 template <class F>
 void for_each_sample(const scene::Camera& cam, int n, std::int64_t p0, std::int64_t p1, F&& f) {
   const float inv = 1.0f / float(n), weight = 1.0f / float(n * n);

@@ -88,11 +88,12 @@ struct Stage2Config {
     return t;
   }();
   bool relative_l2 = false;       // true: relative L2 (see the top of the file)
-  float max_ray_loss = 1e3f;
+  float max_ray_loss = 1e3f;      // rays whose colour loss exceeds this are skipped (outliers: sun glints)
   // Per-ray clip of the vertex gradient: the L2 norm of the gradient of one
   // ray's own loss w.r.t. the vertices (positions and normals) is capped at
-  // this (ray_batch_gradient's clip_geometry); 0: off. See the note above.
-  float clip_geometry = 1.0f;      // rays whose colour loss exceeds this are skipped (outliers: sun glints)
+  // this (ray_batch_gradient's clip_geometry, given clip_geometry / rays as
+  // the loss is a mean over the rays); 0: off. See the note on the class.
+  float clip_geometry = 1.0f;
   Stage2Weights weights;
   std::uint64_t seed = 1;
 };

@@ -1,8 +1,8 @@
-// A per-item optics kernel — Fresnel split, refraction and Beer–Lambert
-// attenuation along the refracted segment — written once and run as float,
-// Dual or Var, on the host and inside CUDA kernels. It checks that the
-// generic path compiles and agrees on both sides, and it is the workload of
-// the optics micro-benchmark.
+// Test fixture: a per-item optics kernel — Fresnel split, refraction and
+// Beer–Lambert attenuation along the refracted segment — written once and run
+// as float, Dual or Var, on the host and inside CUDA kernels. It checks that
+// the generic path compiles and agrees on both sides (tests/cuda), and it is
+// the workload of the optics micro-benchmark (bench/optics.bench.cpp).
 #pragma once
 
 #include <cmath>
@@ -12,7 +12,11 @@
 #include "difftrans/ad/ad.hpp"
 #include "difftrans/optics/optics.hpp"
 
-namespace difftrans::cuda {
+namespace dt_test {
+
+namespace ad = difftrans::ad;
+namespace optics = difftrans::optics;
+using difftrans::Vec3;
 
 // One input: a direction and normal at an interface, the IoR, an RGB
 // absorption coefficient and the length of the segment inside.
@@ -28,6 +32,7 @@ struct OpticsItem {
 struct OpticsResult {
   float value;
   float grad[4];
+  int overflowed;  // Var: the tape ran out of nodes (set by the caller that owns the tape)
 };
 
 // The radiance-like scalar the probe computes, for any scalar S.
@@ -99,4 +104,4 @@ inline std::vector<OpticsItem> make_optics_items(int count, std::uint32_t seed =
 // Tape nodes one probe records (with its four leaves); a per-thread budget.
 inline constexpr int optics_probe_tape_capacity = 160;
 
-}  // namespace difftrans::cuda
+}  // namespace dt_test
