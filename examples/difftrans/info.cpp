@@ -37,7 +37,7 @@ io::Json summarize(const io::Split& split) {
   double r_min = INFINITY, r_max = 0.0, off_axis_max = 0.0;
   for (const auto& f : split.frames) {
     env_only += f.environment_only;
-    with_mask += !f.mask_path.empty();
+    with_mask += f.has_mask();
     sizes.insert({f.intrinsics.width, f.intrinsics.height});
     fovs.insert(fixed(f.intrinsics.fov_y() * 180.0 / M_PI, 2));
     const Vec3d c = f.position();
@@ -94,7 +94,7 @@ void run(const InfoOptions& o) {
   const io::Scene scene = io::load_scene(o.dir, options);
   io::Json j = io::Json::object();
   j["dir"] = scene.dir.string();
-  j["source"] = scene.from_colmap ? "colmap" : "transforms";
+  j["source"] = scene.from_colmap ? "colmap " + scene.colmap_format : std::string("transforms");
   j["train"] = summarize(scene.train);
   if (!scene.test.frames.empty()) j["test"] = summarize(scene.test);
   j["environment"] = io::to_string(scene.settings.environment);
@@ -113,7 +113,8 @@ void run(const InfoOptions& o) {
     return;
   }
   std::printf("scene: %s (%s)\n", scene.dir.string().c_str(),
-              scene.from_colmap ? "COLMAP text model" : "transforms_*.json");
+              scene.from_colmap ? ("COLMAP " + scene.colmap_format + " model in " + scene.colmap_model.string()).c_str()
+                                : "transforms_*.json");
   print_split("train", j["train"]);
   if (j.contains("test")) print_split("test", j["test"]);
   std::printf("environment: %s%s\n", io::to_string(scene.settings.environment),
