@@ -12,7 +12,8 @@
   X(reconstruct)              \
   X(evaluate)                 \
   X(info)                     \
-  X(shape)
+  X(shape)                    \
+  X(degrade)
 
 namespace difftrans::cli {
 #define DIFFTRANS_DECLARE(name) void add_##name(CLI::App& app);

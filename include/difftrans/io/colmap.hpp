@@ -648,6 +648,7 @@ inline Split load_colmap(const std::filesystem::path& model_dir, const std::file
   Split split;
   split.file = images_file;
   std::set<std::uint32_t> ids;
+  std::string first_skipped;
   for (const ColmapImage& im : images) {
     try {
       if (!ids.insert(im.id).second) throw Error(images_file, im.where + ": image id appears twice", im.line);
@@ -682,10 +683,13 @@ inline Split load_colmap(const std::filesystem::path& model_dir, const std::file
       split.frames.push_back(std::move(f));
     } catch (const Error& e) {
       if (!options.skip_bad_frames) throw;
+      if (first_skipped.empty()) first_skipped = e.what();
       if (warnings) warnings->push_back(std::string("skipped a frame: ") + e.what());
     }
   }
-  if (split.frames.empty()) throw Error(images_file, images.empty() ? "no images" : "no usable images");
+  if (split.frames.empty())
+    throw Error(images_file, images.empty() ? std::string("no images")
+                                            : "no usable images (every one was skipped; the first: " + first_skipped + ")");
   return split;
 }
 
