@@ -1,4 +1,4 @@
-// Speed against error (PROTOCOL.md): for every knob that trades accuracy for
+// Speed against error (docs/metrics.md): for every knob that trades accuracy for
 // time — ray-tree depth, throughput pruning, absorption quadrature samples
 // against exact integration, float against double — render and
 // differentiate one scene, and report (time, error) pairs:
@@ -48,7 +48,7 @@ double seconds_of(const std::function<void()>& f, int repeats = 2) {
   return best;
 }
 
-// The monkey-bands absorption of PROTOCOL.md on a grid over the unit box:
+// The monkey-bands absorption of docs/benchmark-scenes.md on a grid over the unit box:
 // (0.5, 2, 5) above y = 0, (5, 2, 0.5) below, smooth step of width 0.1.
 void banded_absorption(dr::HostScene& s, int res) {
   std::vector<float> raw;

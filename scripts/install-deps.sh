@@ -7,7 +7,7 @@ packages=(
   build-essential cmake ninja-build pkg-config git
   libeigen3-dev libglm-dev libembree-dev libtinyobjloader-dev libstb-dev
   doctest-dev libbenchmark-dev nlohmann-json3-dev libcli11-dev
-  libopenexr-dev libnanoflann-dev
+  libopenexr-dev libnanoflann-dev libtinygltf-dev libpugixml-dev
 )
 
 if [ "$(id -u)" -eq 0 ]; then

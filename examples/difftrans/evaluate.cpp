@@ -1,4 +1,4 @@
-// difftrans evaluate: the PROTOCOL.md metrics as one JSON object on stdout
+// difftrans evaluate: the metrics of docs/metrics.md as one JSON object on stdout
 // (and in --out): geometry (chamfer, f1, precision, recall) of a predicted
 // mesh against the ground truth, images (psnr, psnr_mask, ssim per image and
 // mean) of a folder of predictions against a folder of ground truth, IoR error.
@@ -164,7 +164,7 @@ void run(const EvaluateOptions& o) {
 
 void add_evaluate(CLI::App& app) {
   auto o = std::make_shared<EvaluateOptions>();
-  CLI::App* cmd = app.add_subcommand("evaluate", "Compute the PROTOCOL.md metrics; print them as one JSON object");
+  CLI::App* cmd = app.add_subcommand("evaluate", "Compute the metrics of docs/metrics.md; print them as one JSON object");
   cmd->footer(
       "Geometry: difftrans evaluate --pred MESH --gt MESH\n"
       "  both meshes normalized with the ground truth's unit box; chamfer = mean d^2 both ways, f1 at --tau.\n"

@@ -1,4 +1,4 @@
-// difftrans info SCENE_DIR: loads a scene directory (PROTOCOL.md) and prints a
+// difftrans info SCENE_DIR: loads a scene directory (docs/scene-format.md) and prints a
 // summary: views per split, resolution, cameras, masks, scene.json, gt/, and
 // every bad input as a warning (bad frames are reported and left out).
 #include <algorithm>

@@ -2,8 +2,10 @@
 // difftrans info, ...). Adding a subcommand: a file difftrans/NAME.cpp that
 // defines difftrans::cli::add_NAME(CLI::App&), and one X(NAME) line below.
 #include "command.hpp"
+#include "long_run.hpp"
 
 #include <exception>
+#include <string>
 
 #define DIFFTRANS_COMMANDS(X) \
   X(synth)                    \
@@ -13,6 +15,7 @@
   X(evaluate)                 \
   X(info)                     \
   X(shape)                    \
+  X(export)                   \
   X(degrade)
 
 namespace difftrans::cli {
@@ -33,7 +36,11 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);  // runs the chosen subcommand's callback
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
+  } catch (const difftrans::cli::Interrupted& e) {
+    difftrans::cli::progress(std::string("difftrans: ") + e.what());
+    return 128 + e.signal;  // the shell's convention for "ended by signal N"
   } catch (const std::exception& e) {
+    difftrans::cli::clear_status_line();
     std::cerr << "difftrans: error: " << e.what() << std::endl;
     return 1;
   }

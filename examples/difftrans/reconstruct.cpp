@@ -1,15 +1,17 @@
 // difftrans reconstruct: the DiffTrans pipeline on a scene directory, stage
-// by stage. Implemented so far: --stages environment (a distant map or a
-// near-field radiance field fitted to the out-of-mask pixels,
-// stage_environment.cpp), geometry (stage 1, stage_geometry.cpp) and
-// materials (stage 2, stage_materials.cpp). Stages run in the order given and
-// read what earlier ones wrote into --out; reconstruct.json keeps the records
-// of stages run by earlier invocations.
+// by stage: --stages environment (a distant map or a near-field radiance
+// field fitted to the out-of-mask pixels, stage_environment.cpp), geometry
+// (stage 1, stage_geometry.cpp) and materials (stage 2, stage_materials.cpp).
+// Stages run in the order given and read what earlier ones wrote into --out;
+// reconstruct.json keeps the records of stages run by earlier invocations and
+// is rewritten after each stage, and a stage stopped by SIGINT / SIGTERM
+// leaves its checkpoint for the next run.
 #include <chrono>
 #include <sstream>
 #include <sys/resource.h>
 
 #include "command.hpp"
+#include "long_run.hpp"
 #include "scene_options.hpp"
 #include "stages.hpp"
 #include "views.hpp"
@@ -31,11 +33,22 @@ struct ReconstructOptions {
 
 }  // namespace
 
+void add_run_options(CLI::App* cmd, RunOptions& opt) {
+  cmd->add_flag("--restart", opt.restart,
+                "Ignore the checkpoints and finished results in --out (geometry, materials) and start afresh");
+  cmd->add_option("--checkpoint-every", opt.checkpoint_every,
+                  "Iterations between checkpoints of geometry and materials (also at least once a minute and on "
+                  "SIGINT / SIGTERM)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+}
+
 void add_reconstruct(CLI::App& app) {
   auto opt = std::make_shared<ReconstructOptions>();
   auto environment = std::make_shared<EnvironmentStageOptions>();
   auto geometry = std::make_shared<GeometryStageOptions>();
   auto materials = std::make_shared<MaterialsStageOptions>();
+  auto run = std::make_shared<RunOptions>();
   CLI::App* cmd = app.add_subcommand("reconstruct", "Reconstruct a transparent object from a scene directory");
   cmd->add_option("scene", opt->scene, "Scene directory (transforms_train.json, images, masks)")->required();
   cmd->add_option("--out", opt->out, "Output directory")->required();
@@ -45,7 +58,8 @@ void add_reconstruct(CLI::App& app) {
   add_environment_options(cmd, *environment);
   add_geometry_options(cmd, *geometry);
   add_materials_options(cmd, *materials);
-  cmd->callback([opt, environment, geometry, materials] {
+  add_run_options(cmd, *run);
+  cmd->callback([opt, environment, geometry, materials, run] {
     std::stringstream ss(opt->stages);
     std::vector<std::string> stages;
     for (std::string s; std::getline(ss, s, ',');)
@@ -75,15 +89,20 @@ void add_reconstruct(CLI::App& app) {
     result["scene"] = opt->scene.string();
     result["masks"] = describe(load.masks);
     result["exposure"] = exposure;
-    for (const auto& s : stages)
+    // SIGINT / SIGTERM: the running stage saves its checkpoint and stops;
+    // the record of every finished stage is already on disk
+    const StopSignals stop_signals;
+    for (const auto& s : stages) {
       if (s == "environment") {
         result["environment"] = environment_stage(scene, opt->out, *environment);
       } else if (s == "geometry") {
-        result["geometry"] = geometry_stage(scene, opt->out, *geometry);
+        result["geometry"] = geometry_stage(scene, opt->out, *geometry, *run);
       } else if (s == "materials") {
-        result["materials"] = materials_stage(scene, opt->out, *materials);
+        result["materials"] = materials_stage(scene, opt->out, *materials, *run);
       }
-    emit_json(result, opt->out / "reconstruct.json");
+      io::write_json(record, result);
+    }
+    emit_json(result, record);
   });
 }
 

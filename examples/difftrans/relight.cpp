@@ -1,5 +1,5 @@
 // difftrans relight: an object (a reconstruction, or the ground truth) under
-// other environment maps (PROTOCOL.md: the three shared maps not used for
+// other environment maps (docs/benchmark-scenes.md: the three maps not used for
 // training, 10 test views each), compared with the scene's ground truth
 // rendered under the same maps: images, metrics and a contact sheet per map.
 #include <set>
@@ -110,6 +110,7 @@ void run(const RelightOptions& o) {
       sum_ssim += entry["ssim"].get<double>();
     }
     entry["environment"] = envs[e].spec;
+    entry["environment_kind"] = envs[e].description();
     entry["folder"] = name;
     per_env.push_back(entry);
   }
@@ -139,7 +140,8 @@ void add_relight(CLI::App& app) {
       "Example: difftrans relight --mesh S/gt/mesh.obj --material S/gt/material.json --scene S --all-envs --out out/relight");
   cmd->add_option("--mesh", o->mesh, "mesh (.obj or .ply), in the scene's frame")->required();
   o->material.add(cmd);
-  cmd->add_option("--env", o->envs, "environment map(s) (.hdr/.exr) or constant:R,G,B");
+  cmd->add_option("--env", o->envs, "environment(s): map (.hdr/.exr), constant:R,G,B, radiance field (.json) or a reconstruct "
+                                     "output folder");
   cmd->add_flag("--all-envs", o->all_envs, "every shared environment map except the scene's training one");
   cmd->add_option("--scene", o->scene, "scene directory (its test cameras and gt/)")->required();
   cmd->add_option("--views", o->views, "test views per environment")->capture_default_str()->check(CLI::Range(1, 100000));

@@ -60,6 +60,7 @@ void run(const RenderOptions& o) {
     progress("render: comparing with " + o.scene);
     result = compare_with_truth(rendered, nullptr, out.path(), o.sheet_rows);
   }
+  result["environment"] = env.description();
   result["views"] = rendered.size();
   result["out"] = out.final_path().string();
   io::write_json(out.path() / "render.json", result);
@@ -81,7 +82,9 @@ void add_render(CLI::App& app) {
       "           --scene S --split test --out out/render");
   cmd->add_option("--mesh", o->mesh, "mesh (.obj or .ply)")->required();
   o->material.add(cmd);
-  cmd->add_option("--env", o->env, "environment: equirectangular map (.hdr/.exr) or constant:R,G,B")->required();
+  cmd->add_option("--env", o->env, "environment: equirectangular map (.hdr/.exr), constant:R,G,B, a radiance field (.json) or "
+                                    "a reconstruct output folder (its field or map)")
+      ->required();
   cmd->add_option("--scene", o->scene, "scene directory whose cameras (and images) to use");
   cmd->add_option("--split", o->split, "which views of --scene")->capture_default_str()->check(CLI::IsMember({"train", "test"}));
   cmd->add_option("--views", o->views, "instead of --scene: N protocol views (Fibonacci, radius 3, FoV 40)")

@@ -4,6 +4,7 @@
 // against rendered silhouettes, the loss curve, and CD / F1 / genus when the
 // scene has a ground-truth mesh. Resumable: the FlexiCubes unknowns are saved
 // to checkpoint_stage1.bin as it runs, and a finished raw mesh is reused.
+#include "long_run.hpp"
 #include "stages.hpp"
 #include "stage_output.hpp"
 
@@ -114,12 +115,11 @@ void add_geometry_options(CLI::App* cmd, GeometryStageOptions& opt) {
                   "Geometry: keep outside every grid vertex a view sees on background farther than this many pixels "
                   "from the mask (-1: no carving)")
       ->capture_default_str();
-  cmd->add_option("--checkpoint-every", opt.checkpoint_every, "Geometry: iterations between checkpoints")->capture_default_str();
   cmd->add_option("--metric-samples", opt.metric_samples, "Geometry: points per mesh for CD / F1")->capture_default_str();
-  cmd->add_flag("--restart", opt.restart, "Geometry: ignore the checkpoint and finished meshes in --out");
 }
 
-io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out, const GeometryStageOptions& opt) {
+io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out, const GeometryStageOptions& opt,
+                        const RunOptions& run) {
   const auto t_start = clock_type::now();
   namespace fs = std::filesystem;
   // training views with masks
@@ -242,7 +242,7 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
   std::vector<std::int32_t> raw_tris;
   std::vector<double> fc_loss, fc_mask;
   double fc_seconds = 0.0, mean_iteration = 0.0;
-  if (!opt.restart && fs::exists(raw_path)) {
+  if (!run.restart && fs::exists(raw_path)) {
     progress("geometry: reusing " + raw_path.string() + " (finished earlier; --restart recomputes it)");
     from_io_mesh(io::read_mesh(raw_path), raw_pos, raw_tris);
     j["raw_reused"] = true;
@@ -250,7 +250,7 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
     const auto t0 = clock_type::now();
     dg::Stage1FlexiCubes fc(cfg);
     bool resumed = false;
-    if (!opt.restart && fs::exists(ckpt_path)) {
+    if (!run.restart && fs::exists(ckpt_path)) {
       resumed = fc.load(ckpt_path);
       if (resumed)
         progress("geometry: resuming from " + ckpt_path.string() + " at iteration " + std::to_string(fc.iteration()));
@@ -264,24 +264,27 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
     progress("geometry: FlexiCubes " + std::to_string(cfg.grid_resolution) + "^3 over " + std::to_string(views.size()) +
              " views, " + std::to_string(cfg.iterations) + " iterations, " + std::to_string(cfg.views_per_iteration) +
              " views per iteration");
-    auto last_print = clock_type::now(), last_save = clock_type::now();
+    auto last_save = clock_type::now();
     io::Json genus_history = io::Json::array();
     double sum_it = 0.0;
     int counted = 0;
+    ProgressMeter meter("geometry", cfg.iterations, fc.iteration());
     while (!fc.done()) {
       const dg::Stage1Stats s = fc.step(views);
       sum_it += s.seconds;
       ++counted;
       const bool last = fc.done();
-      if (last || s.iteration < 3 || seconds_since(last_print) > 2.0) {
-        progress("geometry: it " + std::to_string(s.iteration + 1) + "/" + std::to_string(cfg.iterations) + " [" +
-                 s.phase + "] loss " + fixed(s.loss, 5) + " mask " + fixed(s.mask, 5) + " lr " + fixed(s.lr, 5) + "  " +
-                 std::to_string(s.triangles) + " tris  " + fixed(s.seconds, 3) + " s/it (extract " +
-                 fixed(s.extract_seconds, 3) + ", silhouettes " + fixed(s.render_seconds, 3) + ", backward " +
-                 fixed(s.backward_seconds, 3) + ")  elapsed " + fixed(seconds_since(t0), 1) + " s");
-        last_print = clock_type::now();
+      meter.update(s.iteration + 1, std::string("[") + s.phase + "] loss " + fixed(s.loss, 5) + " mask " +
+                                        fixed(s.mask, 5) + " lr " + fixed(s.lr, 5) + "  " + std::to_string(s.triangles) +
+                                        " tris  " + fixed(s.seconds, 3) + " s/it (extract " + fixed(s.extract_seconds, 3) +
+                                        ", silhouettes " + fixed(s.render_seconds, 3) + ", backward " +
+                                        fixed(s.backward_seconds, 3) + ")");
+      if (stop_requested()) {
+        fc.save(ckpt_path);
+        stop_if_requested("geometry", "the FlexiCubes state at iteration " + std::to_string(fc.iteration()) +
+                                          " is saved in " + ckpt_path.string());
       }
-      if (last || (opt.checkpoint_every > 0 && fc.iteration() % opt.checkpoint_every == 0) ||
+      if (last || (run.checkpoint_every > 0 && fc.iteration() % run.checkpoint_every == 0) ||
           seconds_since(last_save) > 60.0) {
         fc.save(ckpt_path);
         last_save = clock_type::now();
@@ -300,6 +303,7 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
                  " without small components)");
       }
     }
+    meter.finish();
     mean_iteration = counted ? sum_it / counted : 0.0;
     j["genus_history"] = genus_history;
     fc_loss = fc.loss_history();
@@ -324,20 +328,21 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
   j["dropped_components"] = dropped;
   if (dropped) progress("geometry: dropped " + std::to_string(dropped) + " small component(s) before remeshing");
   std::vector<double> ref_loss;
-  if (!opt.restart && fs::exists(final_path) && j.contains("raw_reused")) {
+  if (!run.restart && fs::exists(final_path) && j.contains("raw_reused")) {
     progress("geometry: reusing " + final_path.string());
     from_io_mesh(io::read_mesh(final_path), pos, tris);
   } else {
     const auto t1 = clock_type::now();
     progress("geometry: remeshing and " + std::to_string(cfg.refine_iterations) + " large-steps iterations");
-    auto last_print = clock_type::now();
+    ProgressMeter meter("geometry: refine", cfg.refine_iterations);
     const dg::Stage1RefineResult r = dg::stage1_refine(pos, tris, views, cfg, [&](const dg::Stage1RefineStats& s) {
-      if (s.iteration + 1 == cfg.refine_iterations || seconds_since(last_print) > 2.0) {
-        progress("geometry: refine " + std::to_string(s.iteration + 1) + "/" + std::to_string(cfg.refine_iterations) +
-                 " loss " + fixed(s.loss, 5) + " mask " + fixed(s.mask, 5) + "  " + fixed(s.seconds, 3) + " s/it");
-        last_print = clock_type::now();
-      }
+      meter.update(s.iteration + 1, "loss " + fixed(s.loss, 5) + " mask " + fixed(s.mask, 5) + "  " +
+                                        fixed(s.seconds, 3) + " s/it");
+      // the refinement is short and keeps no checkpoint: the FlexiCubes mesh is what is saved
+      stop_if_requested("geometry", "the FlexiCubes mesh is saved in " + raw_path.string() +
+                                        "; the refinement starts again from it");
     });
+    meter.finish();
     if (!r.remeshed) warn("geometry: the remesher did not accept the mesh (not a closed manifold); refined as extracted");
     pos = r.positions;
     tris = r.triangles;
@@ -359,7 +364,7 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
     write_loss_svg(out / "stage1_loss.svg",
                    {{"FlexiCubes total", fc_loss}, {"FlexiCubes mask L1", fc_mask}, {"refinement (mask + edge)", ref_loss}});
 
-  // ---- metrics against the ground truth (PROTOCOL.md: both normalized with the truth's unit-box transform)
+  // ---- metrics against the ground truth (docs/metrics.md: both normalized with the truth's unit-box transform)
   if (!scene.gt.mesh.empty() && fs::exists(scene.gt.mesh)) {
     const io::Mesh gt = io::read_mesh(scene.gt.mesh);
     metrics::GeometryOptions go;

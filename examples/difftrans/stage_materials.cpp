@@ -6,6 +6,7 @@
 // material_stage2.json (+ absorption_stage2.json), mesh_stage2.obj, the loss
 // curve, renders of the test views with metrics and a contact sheet, and the
 // IoR / CD / F1 errors when the scene has ground truth.
+#include "long_run.hpp"
 #include "stages.hpp"
 #include "stage_output.hpp"
 #include "views.hpp"
@@ -47,7 +48,8 @@ void add_materials_options(CLI::App* cmd, MaterialsStageOptions& opt) {
       ->capture_default_str();
 }
 
-io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& out, const MaterialsStageOptions& opt) {
+io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& out, const MaterialsStageOptions& opt,
+                         const RunOptions& run) {
   namespace fs = std::filesystem;
   using clock = std::chrono::steady_clock;
   const auto t_start = clock::now();
@@ -59,13 +61,19 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
   render::HostScene s = render::make_host_scene(mesh, io::Material{}, mesh_path.filename().string());
   io::Json j;
   j["mesh_in"] = mesh_path.string();
+  // what the fit starts from, to tell a checkpoint of this run from another's
+  std::string inputs = "mesh " + fingerprint(mesh.positions) + fingerprint(mesh.triangles);
   // the environment recovered by the environment stage
   const fs::path field_path = out / "radiance_field.json", env_path = out / "envmap.hdr";
   if (fs::exists(field_path)) {
-    s.set_near_field(std::make_shared<const scene::RadianceField>(io::read_radiance_field(field_path)));
+    auto field = std::make_shared<const scene::RadianceField>(io::read_radiance_field(field_path));
+    inputs += " field " + fingerprint(field->values);
+    s.set_near_field(std::move(field));
     j["environment"] = field_path.string();
   } else if (fs::exists(env_path)) {
-    render::set_environment(s, io::read_image(env_path));
+    const io::Image map = io::read_image(env_path);
+    inputs += " map " + fingerprint(map.rgb);
+    render::set_environment(s, map);
     j["environment"] = env_path.string();
   } else {
     throw std::runtime_error(env_path.string() + ": no recovered environment; run --stages environment first");
@@ -134,21 +142,46 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
            ", absorption grid " + std::to_string(cfg.absorption_res.x) + "^3" +
            (cfg.optimize_positions ? ", vertices after " + std::to_string(cfg.freeze_geometry) : std::string()));
   render::Stage2 stage(s, views, mask_views, cfg);
-  std::vector<double> color_curve, ior_curve;
-  auto last_print = clock::now();
+  // checkpoints: the settings above, the seed and the inputs name the run
+  const fs::path ckpt_path = out / "checkpoint_stage2.bin";
+  // (not the iteration count: a finished or stopped fit can be continued for more iterations)
+  io::Json settings = j;
+  settings.erase("iterations");
+  const std::string run_name = settings.dump() + " seed " + std::to_string(cfg.seed) + " " + inputs;
+  if (!run.restart && fs::exists(ckpt_path)) {
+    if (stage.load(ckpt_path, run_name))
+      progress("materials: resuming from " + ckpt_path.string() + " at iteration " + std::to_string(stage.iteration()));
+    else
+      warn("materials: " + ckpt_path.string() +
+           " is of other settings or inputs, lies past --materials-iterations, or is damaged; starting afresh");
+  }
+  j["resumed_at"] = stage.iteration();
+  const auto save = [&] { stage.save(ckpt_path, run_name); };
+  ProgressMeter meter("materials", cfg.iterations, stage.iteration());
+  auto last_save = clock::now();
   const auto t0 = clock::now();
   while (!stage.done()) {
     const render::Stage2Stats st = stage.step();
+    meter.update(st.iteration + 1, "colour " + fixed(st.color, 5) + " IoR " + fixed(st.ior, 4) + " mean sigma (" +
+                                       fixed(st.mean_sigma.x, 3) + ", " + fixed(st.mean_sigma.y, 3) + ", " +
+                                       fixed(st.mean_sigma.z, 3) + ")" +
+                                       (st.geometry_moving ? " mask " + fixed(st.mask, 5) : std::string()) + "  " +
+                                       fixed(st.seconds, 3) + " s/it" +
+                                       (st.skipped_rays ? "  skipped " + std::to_string(st.skipped_rays) : std::string()));
+    if (stop_requested() || stage.done() ||
+        (run.checkpoint_every > 0 && stage.iteration() % run.checkpoint_every == 0) ||
+        std::chrono::duration<double>(clock::now() - last_save).count() > 60.0) {
+      save();
+      last_save = clock::now();
+    }
+    stop_if_requested("materials", "the fit at iteration " + std::to_string(stage.iteration()) + " is saved in " +
+                                       ckpt_path.string());
+  }
+  meter.finish();
+  std::vector<double> color_curve, ior_curve;
+  for (const render::Stage2Stats& st : stage.history()) {
     color_curve.push_back(st.color);
     ior_curve.push_back(st.ior);
-    if (stage.done() || st.iteration < 2 || std::chrono::duration<double>(clock::now() - last_print).count() > 2.0) {
-      progress("materials: it " + std::to_string(st.iteration + 1) + "/" + std::to_string(cfg.iterations) + " colour " +
-               fixed(st.color, 5) + " IoR " + fixed(st.ior, 4) + " mean sigma (" + fixed(st.mean_sigma.x, 3) + ", " +
-               fixed(st.mean_sigma.y, 3) + ", " + fixed(st.mean_sigma.z, 3) + ")" +
-               (st.geometry_moving ? " mask " + fixed(st.mask, 5) : std::string()) + "  " + fixed(st.seconds, 3) +
-               " s/it" + (st.skipped_rays ? "  skipped " + std::to_string(st.skipped_rays) : std::string()));
-      last_print = clock::now();
-    }
   }
   const double fit_seconds = std::chrono::duration<double>(clock::now() - t0).count();
   j["fit_seconds"] = fit_seconds;

@@ -4,10 +4,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 #include <sys/resource.h>
@@ -21,6 +23,19 @@ inline io::Mesh to_io_mesh(const std::vector<float>& pos, const std::vector<std:
   for (std::size_t i = 0; i + 2 < pos.size(); i += 3) m.positions.emplace_back(pos[i], pos[i + 1], pos[i + 2]);
   for (std::size_t f = 0; f + 2 < tris.size(); f += 3) m.triangles.emplace_back(tris[f], tris[f + 1], tris[f + 2]);
   return m;
+}
+
+// A short text that changes when the bytes change (FNV-1a, 64 bits): tells a
+// checkpoint made from these inputs from one made from others.
+template <class T>
+inline std::string fingerprint(const std::vector<T>& values) {
+  static_assert(std::is_trivially_copyable_v<T>, "fingerprints are taken of plain bytes");
+  std::uint64_t h = 14695981039346656037ull;
+  const auto* bytes = reinterpret_cast<const unsigned char*>(values.data());
+  for (std::size_t i = 0; i < values.size() * sizeof(T); ++i) h = (h ^ bytes[i]) * 1099511628211ull;
+  char buf[24];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
+  return buf;
 }
 
 // The process's peak resident memory so far, in MB.

@@ -13,6 +13,17 @@
 
 namespace difftrans::cli {
 
+// What every long stage shares: checkpoints and starting afresh. A stage
+// saves its state to DIR/checkpoint_STAGE.bin every `checkpoint_every`
+// iterations (and at least once a minute) and when SIGINT or SIGTERM stops
+// it; the next run with the same settings goes on from there.
+struct RunOptions {
+  bool restart = false;          // ignore checkpoints and finished results in DIR
+  int checkpoint_every = 50;     // iterations between checkpoints
+};
+
+void add_run_options(CLI::App* cmd, RunOptions& opt);
+
 // The environment from the background pixels: stage_environment.cpp.
 struct EnvironmentStageOptions {
   std::string model = "auto";     // auto (scene.json's "environment", else distant) | distant | near
@@ -53,16 +64,15 @@ struct GeometryStageOptions {
   std::string smoothness = "screen";  // screen | edge | none
   std::string init = "hull";     // hull (the masks' visual hull) | sphere (the paper's start)
   int carve_margin = 0;          // carving (Stage1Config::carve_margin): background pixels eroded by this many; < 0: off
-  int checkpoint_every = 50;     // iterations between checkpoints (and at most 60 s apart)
   int sheet_views = 4;           // rows of the silhouette comparison strip
   std::size_t metric_samples = 200000;
-  bool restart = false;          // ignore checkpoint and finished meshes
 };
 
 void add_geometry_options(CLI::App* cmd, GeometryStageOptions& opt);
 
 // Runs stage 1 on the scene's training views, writing into `out`; returns the stage's JSON record.
-io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out, const GeometryStageOptions& opt);
+io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out, const GeometryStageOptions& opt,
+                        const RunOptions& run);
 
 // Stage 2 (IoR, absorption grid and, optionally, vertices through the tracer): stage_materials.cpp.
 struct MaterialsStageOptions {
@@ -84,6 +94,7 @@ struct MaterialsStageOptions {
 void add_materials_options(CLI::App* cmd, MaterialsStageOptions& opt);
 
 // Runs stage 2 from the stage-1 mesh and the recovered environment in `out`; returns the stage's JSON record.
-io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& out, const MaterialsStageOptions& opt);
+io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& out, const MaterialsStageOptions& opt,
+                         const RunOptions& run);
 
 }  // namespace difftrans::cli

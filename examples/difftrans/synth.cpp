@@ -1,4 +1,4 @@
-// difftrans synth: renders a synthetic scene directory (PROTOCOL.md) with its
+// difftrans synth: renders a synthetic scene directory (docs/scene-format.md) with its
 // ground truth in gt/ — from a benchmark preset and variant, or from explicit
 // options (each explicit option also overrides the preset's value).
 #include "views.hpp"
@@ -101,7 +101,7 @@ SynthSpec resolve(const SynthOptions& o) {
 }
 
 // The room seen from its centre (the object's), as an equirectangular map
-// (PROTOCOL.md convention), 4 × 4 samples per texel.
+// (docs/conventions.md), 4 × 4 samples per texel.
 io::Image room_panorama(const scene::Room& room, int width = 512) {
   const int height = width / 2, n = 4;
   io::Image im(width, height);
@@ -164,6 +164,7 @@ void run(const SynthOptions& o) {
   io::Mesh mesh = load_mesh(s.mesh);
   io::normalize_to_unit_box(mesh);
   const Environment env = s.room ? Environment{} : load_environment(s.env_spec);
+  if (env.field) environment_image(env);  // refuses a radiance field before anything is written
   scene::Room room;
   room.half = float(s.room_size / 2.0);
 
@@ -221,7 +222,7 @@ void add_synth(CLI::App& app) {
   auto o = std::make_shared<SynthOptions>();
   CLI::App* cmd = app.add_subcommand("synth", "Render a synthetic scene directory with its ground truth in gt/");
   cmd->footer(
-      "Presets (PROTOCOL.md): spot-clear, bunny-clear, horse-green, monkey-bands; variants full (256^2, 100 + 20\n"
+      "Presets (docs/benchmark-scenes.md): spot-clear, bunny-clear, horse-green, monkey-bands; variants full (256^2, 100 + 20\n"
       "views), quick (128^2, 50 + 20), test (64^2, 24 + 8). Explicit options override a preset's values.\n"
       "Cameras: Fibonacci points on the sphere or the upper hemisphere (y > 0.05), radius 3, looking at the origin,\n"
       "vertical FoV 40 degrees; test views use the same lattice turned by half a turn. Pixels: box filter over\n"

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <memory>
 #include <optional>
 #include <sstream>
 
@@ -17,6 +18,7 @@
 #include "difftrans/io/image_file.hpp"
 #include "difftrans/io/material.hpp"
 #include "difftrans/io/mesh_file.hpp"
+#include "difftrans/io/radiance_field.hpp"
 #include "difftrans/metrics/image.hpp"
 #include "difftrans/render/views.hpp"
 #include "difftrans/scene/room.hpp"
@@ -30,7 +32,7 @@ namespace difftrans::cli {
 namespace fs = std::filesystem;
 
 // Linear images are written as OpenEXR (32-bit float, lossless); PNG previews
-// are tone-mapped per PROTOCOL.md.
+// are tone-mapped as docs/conventions.md says.
 inline constexpr const char* linear_extension = ".exr";
 
 // The data folder (meshes/, envmaps/; data/README.md): --data, else
@@ -69,13 +71,25 @@ inline Vec3f parse_rgb(const std::string& text, const std::string& option, bool 
   return Vec3f(float(v[0]), float(v[1]), float(v[2]));
 }
 
-// --env: an equirectangular map (.hdr, .exr or .png, +Y up) or constant:R,G,B.
+// --env: an equirectangular map (.hdr, .exr or .png, +Y up), constant:R,G,B,
+// a near-field radiance field (its .json file, as `reconstruct --env-model
+// near` writes it), or the output folder of `reconstruct` (its
+// radiance_field.json when there is one, else its envmap.hdr).
 struct Environment {
   std::string spec;       // as given
   fs::path file;          // empty for a constant
   Vec3f constant{1.0f};
-  io::Image map;          // the loaded map (empty for a constant)
-  std::string name() const { return file.empty() ? "constant" : file.stem().string(); }
+  io::Image map;          // the loaded map (empty for a constant or a field)
+  std::shared_ptr<const scene::RadianceField> field;  // a near-field environment
+  std::string description() const {
+    if (file.empty()) return "constant " + std::to_string(constant.x) + "," + std::to_string(constant.y) + "," +
+                             std::to_string(constant.z);
+    return (field ? "radiance field " : "map ") + file.string();
+  }
+  std::string name() const {
+    if (file.empty()) return "constant";
+    return field ? file.parent_path().filename().string() + "_" + file.stem().string() : file.stem().string();
+  }
 };
 
 inline Environment load_environment(const std::string& spec) {
@@ -87,18 +101,34 @@ inline Environment load_environment(const std::string& spec) {
     return e;
   }
   e.file = spec;
+  std::error_code ec;
+  if (fs::is_directory(e.file, ec)) {  // a reconstruction folder
+    const fs::path field = e.file / "radiance_field.json", map = e.file / "envmap.hdr";
+    if (fs::exists(field, ec)) e.file = field;
+    else if (fs::exists(map, ec)) e.file = map;
+    else throw io::Error(spec, "holds neither radiance_field.json nor envmap.hdr (the environments reconstruct writes)");
+  }
+  if (io::detail::lower_extension(e.file) == ".json") {
+    e.field = std::make_shared<const scene::RadianceField>(io::read_radiance_field(e.file));
+    return e;
+  }
   e.map = io::read_image(e.file);
   if (e.map.width < 2 || e.map.height < 1) throw io::Error(e.file, "environment map is too small");
   return e;
 }
 
 inline void apply_environment(render::HostScene& s, const Environment& e) {
+  s.set_near_field(e.field);  // null for a map or a constant: the distant environment is used
+  if (e.field) return;
   if (e.file.empty()) s.set_constant_environment(e.constant);
   else render::set_environment(s, e.map);
 }
 
 // The environment as an image for gt/: the map itself, or a small constant one.
 inline io::Image environment_image(const Environment& e) {
+  if (e.field)
+    throw io::Error(e.file, "is a radiance field: a synthetic scene's environment is a map or constant:R,G,B "
+                            "(synth --room makes a near-field scene)");
   if (!e.file.empty()) return e.map;
   io::Image im(16, 8);
   for (int y = 0; y < 8; ++y)
@@ -171,7 +201,7 @@ inline View view_from_frame(const io::Frame& f) {
   return v;
 }
 
-// A protocol view (PROTOCOL.md camera) in direction `dir`; the camera is built
+// A benchmark view (docs/benchmark-scenes.md camera) in direction `dir`; the camera is built
 // from the frame, exactly as a reader of the transforms JSON will build it.
 inline View protocol_view(const std::string& name, const Vec3f& dir, int width, int height) {
   const scene::Camera c = scene::protocol_camera(dir, width, height);

@@ -1,4 +1,4 @@
-// sRGB curve, PROTOCOL tone mapping and the image checks.
+// sRGB curve, the tone mapping of docs/conventions.md and the image checks.
 #include "difftrans/io/image.hpp"
 
 #include "io/fixtures.hpp"

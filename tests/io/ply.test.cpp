@@ -3,6 +3,7 @@
 #include "difftrans/io/ply.hpp"
 
 #include <cstring>
+#include <sstream>
 
 #include "io/fixtures.hpp"
 
@@ -94,6 +95,40 @@ TEST_CASE("PLY: write binary and ASCII, read back bit for bit") {
     CHECK(back.positions == m.positions);
     CHECK(back.triangles == m.triangles);
   }
+}
+
+TEST_CASE("PLY: written with vertex normals, which readers that skip them ignore") {
+  TempDir dir;
+  const auto m = uv_sphere(1.0, 4, 6, {0.0, 0.0, 0.0});
+  std::vector<Vec3f> normals;
+  for (const Vec3f& p : m.positions) normals.push_back(p * 0.5f);
+  for (const bool ascii : {false, true}) {
+    io::write_ply(dir / "n.ply", m, ascii, &normals);
+    const io::Mesh back = io::read_ply(dir / "n.ply");
+    CHECK(back.positions == m.positions);
+    CHECK(back.triangles == m.triangles);
+    const std::string text = io::detail::read_file_text(dir / "n.ply");
+    CHECK(contains(text, "property float z\nproperty float nx\nproperty float ny\nproperty float nz\nelement face"));
+    const std::size_t body = text.find("end_header\n") + 11;
+    if (ascii) {
+      std::istringstream in(text.substr(body));
+      for (std::size_t v = 0; v < m.positions.size(); ++v) {
+        float x[6];
+        for (float& c : x) in >> c;
+        CHECK(Vec3f(x[3], x[4], x[5]) == normals[v]);
+      }
+    } else {
+      for (std::size_t v = 0; v < m.positions.size(); ++v) {
+        float n[3];
+        std::memcpy(n, text.data() + body + v * 24 + 12, sizeof(n));  // little-endian host
+        CHECK(Vec3f(n[0], n[1], n[2]) == normals[v]);
+      }
+    }
+  }
+  normals.pop_back();
+  const std::string message = (dir / "bad.ply").string() + ": cannot write " + std::to_string(normals.size()) +
+                              " normals for " + std::to_string(m.positions.size()) + " vertices";
+  CHECK_THROWS_WITH_AS(io::write_ply(dir / "bad.ply", m, false, &normals), message.c_str(), io::Error);
 }
 
 TEST_CASE("PLY: bad input gives an Error naming the file and the problem") {

@@ -1,6 +1,6 @@
 // Benchmark presets: Fibonacci camera directions (count, unit length, the
 // hemisphere constraint, even spread, determinism, offsets), the bands field
-// and its grid, the preset and variant tables against PROTOCOL.md.
+// and its grid, the preset and variant tables against docs/benchmark-scenes.md.
 #include <doctest/doctest.h>
 
 #include <cmath>
@@ -127,7 +127,7 @@ TEST_CASE("bands grid: samples the field at its vertices, spans the unit box") {
   CHECK_THROWS(io::sample_absorption_grid(Vec3i(1, 2, 2), Vec3f(0.0f), Vec3f(1.0f), [](Vec3f) { return Vec3f(0.0f); }));
 }
 
-TEST_CASE("presets and variants follow PROTOCOL.md") {
+TEST_CASE("presets and variants follow docs/benchmark-scenes.md") {
   CHECK(io::presets().size() == 4);
   const auto& horse = io::find_preset("horse-green");
   CHECK(horse.mesh == "horse.obj");

@@ -8,6 +8,9 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <string>
+#include <unistd.h>
 #include <vector>
 
 #include "support/shapes.hpp"
@@ -208,4 +211,53 @@ TEST_CASE("stage 2 with geometry: a dented sphere moves towards the truth") {
     MESSAGE("silhouettes alone: mean |r - 0.4| " << before << " -> " << after);
     CHECK(after < 0.5 * before);
   }
+}
+
+TEST_CASE("stage 2 checkpoint: a resumed fit repeats the uninterrupted one, and another run's file is refused") {
+  // one worker (CTest sets DIFFTRANS_THREADS=1 here): the gradient sums are then in a fixed order
+  const dr::HostScene truth = glass_sphere(1.45f, Vec3f(0.3f, 0.6f, 0.9f));
+  const Photos photos = photograph(truth, 6, 24);
+  dr::Stage2Config cfg;
+  cfg.iterations = 16;
+  cfg.freeze_geometry = 6;  // the vertices move from iteration 6: their optimizer's state goes through the file too
+  cfg.rays_per_iteration = 256;
+  cfg.absorption_res = difftrans::Vec3i(3);
+  const auto fresh = [] { return glass_sphere(1.3f, Vec3f(0.0f)); };
+  const std::filesystem::path file =
+      std::filesystem::temp_directory_path() / ("difftrans-stage2-" + std::to_string(::getpid()) + ".bin");
+
+  dr::HostScene a = fresh();
+  dr::Stage2 straight(a, views_of(photos), mask_views_of(photos), cfg);
+  while (!straight.done()) straight.step();
+
+  for (const int stop : {3, 10}) {  // before and after the vertices start moving
+    CAPTURE(stop);
+    {
+      dr::HostScene b = fresh();
+      dr::Stage2 first(b, views_of(photos), mask_views_of(photos), cfg);
+      while (first.iteration() < stop) first.step();
+      first.save(file, "run 1");
+    }
+    dr::HostScene c = fresh();
+    dr::Stage2 second(c, views_of(photos), mask_views_of(photos), cfg);
+    CHECK_FALSE(second.load(file, "run 2"));  // another run's checkpoint changes nothing
+    CHECK(second.iteration() == 0);
+    REQUIRE(second.load(file, "run 1"));
+    CHECK(second.iteration() == stop);
+    CHECK(second.history().size() == std::size_t(stop));
+    while (!second.done()) second.step();
+    CHECK(c.ior == a.ior);
+    CHECK(c.absorption_raw == a.absorption_raw);
+    CHECK(c.mesh.positions == a.mesh.positions);
+    CHECK(c.mesh.positions != fresh().mesh.positions);  // the vertices did move
+    CHECK(second.history().back().color == straight.history().back().color);
+  }
+  {  // a checkpoint of another grid size is refused
+    dr::Stage2Config other = cfg;
+    other.absorption_res = difftrans::Vec3i(4);
+    dr::HostScene d = fresh();
+    dr::Stage2 third(d, views_of(photos), mask_views_of(photos), other);
+    CHECK_FALSE(third.load(file, "run 1"));
+  }
+  std::filesystem::remove(file);
 }

@@ -55,7 +55,7 @@ TEST_CASE_TEMPLATE("the six axis directions map to the documented uv", S, DT_ALL
   CHECK(close(uv(0, 0, -0.01).y, 0.5, eps));
 }
 
-TEST_CASE("uv matches the PROTOCOL formula on random directions and inverts") {
+TEST_CASE("uv matches the docs/conventions.md formula on random directions and inverts") {
   std::mt19937 rng(3);
   std::normal_distribution<double> n01;
   for (int k = 0; k < 200; ++k) {

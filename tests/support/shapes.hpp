@@ -110,7 +110,7 @@ inline std::vector<float> smooth_sky(int w, int h) {
 }
 
 // The triangles of a data/ mesh ("v x y z", "f a b c", also a/b/c
-// tokens), normalized as PROTOCOL.md says: box centre at the origin, longest
+// tokens), normalized as docs/conventions.md says: box centre at the origin, longest
 // side 1. Enough for the closed, triangulated meshes the tests use.
 inline Shape load_normalized_mesh(const std::string& path) {
   std::ifstream in(path);

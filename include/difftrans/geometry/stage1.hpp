@@ -11,7 +11,6 @@
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <functional>
 #include <memory>
 #include <numeric>
@@ -24,6 +23,7 @@
 #include "difftrans/geometry/flexicubes.hpp"
 #include "difftrans/geometry/regularizers.hpp"
 #include "difftrans/geometry/remesh.hpp"
+#include "difftrans/io/checkpoint.hpp"
 #include "difftrans/optim/adam.hpp"
 #include "difftrans/optim/large_steps.hpp"
 #include "difftrans/render/silhouette.hpp"
@@ -100,7 +100,7 @@ struct Stage1Config {
   float refine_edge_normal = 1e-3f;  // weight of Σ (1 − n_i·n_j)² (mean over interior edges)
 };
 
-// The unit box [-1/2, 1/2]³ of PROTOCOL.md's normalized objects, grown by `margin` on every side.
+// The unit box [-1/2, 1/2]³ of docs/conventions.md's normalized objects, grown by `margin` on every side.
 inline void stage1_unit_box(Stage1Config& c, float margin = 0.1f) {
   c.box_lo = Vec3f(-0.5f - margin);
   c.box_hi = Vec3f(0.5f + margin);
@@ -121,42 +121,6 @@ struct Stage1Stats {
   double backward_seconds = 0.0;  // regularizers on the tape, propagation, scatter, Adam
   const char* phase = "mask";
 };
-
-namespace detail {
-
-// Adam whose moments can be written back from a checkpoint.
-class Stage1Adam : public optim::Adam {
- public:
-  using optim::Adam::Adam;
-  void restore(const std::vector<float>& g1, const std::vector<float>& g2, int steps) {
-    g1_ = g1;
-    g2_ = g2;
-    steps_ = steps;
-  }
-};
-
-template <class T>
-void s1_write(std::ofstream& f, const T& v) {
-  f.write(reinterpret_cast<const char*>(&v), sizeof(T));
-}
-template <class T>
-void s1_write_vec(std::ofstream& f, const std::vector<T>& v) {
-  s1_write(f, std::uint64_t(v.size()));
-  if (!v.empty()) f.write(reinterpret_cast<const char*>(v.data()), std::streamsize(v.size() * sizeof(T)));
-}
-template <class T>
-bool s1_read(std::ifstream& f, T& v) {
-  return bool(f.read(reinterpret_cast<char*>(&v), sizeof(T)));
-}
-template <class T>
-bool s1_read_vec(std::ifstream& f, std::vector<T>& v, std::uint64_t limit) {
-  std::uint64_t n = 0;
-  if (!s1_read(f, n) || n > limit) return false;
-  v.resize(std::size_t(n));
-  return n == 0 || bool(f.read(reinterpret_cast<char*>(v.data()), std::streamsize(n * sizeof(T))));
-}
-
-}  // namespace detail
 
 // The FlexiCubes phase: the unknowns (one flat array, five ParamSet buffers
 // into it), Adam over all of them, and one optimization step at a time.
@@ -190,7 +154,7 @@ class Stage1FlexiCubes {
     optim::AdamOptions ao;
     ao.lr = config.lr;
     ao.eps = config.adam_eps;
-    adam_ = detail::Stage1Adam(params_.size(), ao);
+    adam_ = optim::Adam(params_.size(), ao);
     init_sphere();
   }
 
@@ -549,51 +513,49 @@ class Stage1FlexiCubes {
   }
 
   // Checkpoint: the grid, the unknowns, Adam's moments, the iteration and the
-  // loss history. Written to a temporary file, then renamed over `path`.
+  // loss history (io/checkpoint.hpp: replaced whole or not at all).
   void save(const std::filesystem::path& path) const {
-    const std::filesystem::path tmp = path.string() + ".tmp";
-    {
-      std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-      if (!f) throw std::runtime_error(path.string() + ": cannot write the checkpoint");
-      f.write("DTS1FC01", 8);
-      detail::s1_write(f, std::int32_t(grid_.res));
-      for (int a = 0; a < 3; ++a) detail::s1_write(f, grid_.lo[a]);
-      for (int a = 0; a < 3; ++a) detail::s1_write(f, grid_.hi[a]);
-      detail::s1_write(f, std::int32_t(iteration_));
-      detail::s1_write(f, std::int32_t(adam_.steps()));
-      detail::s1_write_vec(f, params_);
-      detail::s1_write_vec(f, adam_.first_moment());
-      detail::s1_write_vec(f, adam_.second_moment());
-      detail::s1_write_vec(f, history_);
-      detail::s1_write_vec(f, mask_history_);
-      if (!f) throw std::runtime_error(path.string() + ": writing the checkpoint failed");
-    }
-    std::filesystem::rename(tmp, path);
+    io::CheckpointWriter f(path, "DTS1FC01");
+    f.value(std::int32_t(grid_.res));
+    for (int a = 0; a < 3; ++a) f.value(grid_.lo[a]);
+    for (int a = 0; a < 3; ++a) f.value(grid_.hi[a]);
+    f.value(std::int32_t(iteration_));
+    f.value(std::int32_t(adam_.steps()));
+    f.array(params_);
+    f.array(adam_.first_moment());
+    f.array(adam_.second_moment());
+    f.array(history_);
+    f.array(mask_history_);
+    f.commit();
   }
 
   // Resumes from a checkpoint written by save() for the same grid (resolution
   // and box); returns false, changing nothing, when the file is absent,
   // unreadable or for another grid.
   bool load(const std::filesystem::path& path) {
-    std::ifstream f(path, std::ios::binary);
-    if (!f) return false;
-    char magic[8];
-    if (!f.read(magic, 8) || std::memcmp(magic, "DTS1FC01", 8) != 0) return false;
+    io::CheckpointReader f(path, "DTS1FC01");
     std::int32_t res = 0, it = 0, steps = 0;
-    Vec3f lo, hi;
-    if (!detail::s1_read(f, res)) return false;
-    for (int a = 0; a < 3; ++a) detail::s1_read(f, lo[a]);
-    for (int a = 0; a < 3; ++a) detail::s1_read(f, hi[a]);
-    if (res != grid_.res || lo != grid_.lo || hi != grid_.hi) return false;
-    std::vector<float> p, g1, g2;
+    Vec3f lo(0.0f), hi(0.0f);
+    f.value(res);
+    for (int a = 0; a < 3; ++a) f.value(lo[a]);
+    for (int a = 0; a < 3; ++a) f.value(hi[a]);
+    if (!f.ok() || res != grid_.res || lo != grid_.lo || hi != grid_.hi) return false;
+    optim::AdamState adam;
+    std::vector<float> p;
     std::vector<double> h, mh;
     const std::uint64_t n = params_.size();
-    if (!detail::s1_read(f, it) || !detail::s1_read(f, steps) || !detail::s1_read_vec(f, p, n) || p.size() != n ||
-        !detail::s1_read_vec(f, g1, n) || g1.size() != n || !detail::s1_read_vec(f, g2, n) || g2.size() != n ||
-        !detail::s1_read_vec(f, h, 1u << 24) || !detail::s1_read_vec(f, mh, 1u << 24) || it < 0)
+    f.value(it);
+    f.value(steps);
+    f.array(p, n);
+    f.array(adam.g1, n);
+    f.array(adam.g2, n);
+    f.array(h, 1u << 24);
+    f.array(mh, 1u << 24);
+    if (!f.complete() || p.size() != n || adam.g1.size() != n || adam.g2.size() != n || it < 0 || steps < 0)
       return false;
+    adam.steps = steps;
     params_ = std::move(p);
-    adam_.restore(g1, g2, steps);
+    adam_.restore(adam);
     iteration_ = it;
     history_ = std::move(h);
     mask_history_ = std::move(mh);
@@ -668,7 +630,7 @@ class Stage1FlexiCubes {
   std::int64_t offset_[5] = {0}, size_[5] = {0};
   std::vector<float> params_, grad_;
   std::vector<std::uint8_t> carved_;  // grid vertices held outside (set_carving)
-  detail::Stage1Adam adam_;
+  optim::Adam adam_;
   int iteration_ = 0;
   std::vector<double> history_, mask_history_;
   std::unique_ptr<ad::Tape<float>> tape_;

@@ -54,7 +54,7 @@ inline Image8 error_heat_map(const Image& a, const Image& b, float scale = 0.25f
   return out;
 }
 
-// A linear image as an 8-bit RGB tile (PROTOCOL.md tone mapping).
+// A linear image as an 8-bit RGB tile (docs/conventions.md tone mapping).
 inline Image8 tone_mapped_tile(const Image& image) { return {image.width, image.height, 3, tone_map(image)}; }
 
 // A mask as an 8-bit RGB tile: white inside, black outside.

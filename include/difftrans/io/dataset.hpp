@@ -1,4 +1,4 @@
-// The scene directory of PROTOCOL.md: transforms_train.json / transforms_test.json
+// The scene directory of docs/scene-format.md: transforms_train.json / transforms_test.json
 // (NeRF-synthetic convention, masks per frame), optional scene.json, gt/, or a
 // COLMAP model (binary or text); loaded with or without pixels, and written back.
 #pragma once

@@ -1,5 +1,5 @@
 // Linear float RGB images and binary masks, sRGB <-> linear conversion and the
-// PROTOCOL.md tone mapping (exposure 1, clamp to [0, 1], sRGB curve, 8 bits).
+// tone mapping of docs/conventions.md (exposure 1, clamp to [0, 1], sRGB curve, 8 bits).
 #pragma once
 
 #include <cmath>
@@ -77,7 +77,7 @@ inline Mask morph_mask(const Mask& mask, int radius) {
   return out;
 }
 
-// 8-bit values above this are inside the object (PROTOCOL.md: > 127).
+// 8-bit values above this are inside the object (docs/scene-format.md: > 127).
 inline constexpr int mask_threshold = 127;
 
 // sRGB transfer curve (IEC 61966-2-1) and its inverse, on [0, 1].

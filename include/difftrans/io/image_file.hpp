@@ -58,7 +58,7 @@ inline Image read_image(const std::filesystem::path& path) {
   throw Error(path, "unsupported image format '" + ext + "' (expected .png, .hdr or .exr)");
 }
 
-// .png is tone-mapped per PROTOCOL.md; .hdr and .exr keep linear values.
+// .png is tone-mapped (docs/conventions.md); .hdr and .exr keep linear values.
 inline void write_image(const std::filesystem::path& path, const Image& image) {
   const std::string ext = detail::lower_extension(path);
   if (ext == ".exr") return write_exr(path, image);

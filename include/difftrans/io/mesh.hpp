@@ -1,6 +1,6 @@
 // Plain triangle mesh as the io functions read and write it, its validation
 // (errors for bad indices and non-finite vertices, warnings for degenerate and
-// non-manifold faces), and the unit-box normalization of PROTOCOL.md.
+// non-manifold faces), and the unit-box normalization of docs/conventions.md.
 #pragma once
 
 #include <algorithm>
@@ -51,7 +51,7 @@ inline Box bounding_box(const Mesh& mesh) {
   return box;
 }
 
-// p -> (p - centre) * scale. PROTOCOL.md: centre of the bounding box to the
+// p -> (p - centre) * scale. docs/conventions.md: centre of the bounding box to the
 // origin, longest side 1. Computed on one mesh (the ground truth), it can be
 // applied to another (the prediction).
 struct UnitBoxTransform {

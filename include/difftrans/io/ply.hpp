@@ -333,18 +333,32 @@ inline Mesh read_ply(const std::filesystem::path& path, std::vector<std::string>
 }
 
 // Writes binary little-endian PLY (float x y z; uchar-counted int indices),
-// or ASCII when ascii = true.
-inline void write_ply(const std::filesystem::path& path, const Mesh& mesh, bool ascii = false) {
+// or ASCII when ascii = true; with `normals` (one per vertex) also float
+// nx ny nz per vertex.
+inline void write_ply(const std::filesystem::path& path, const Mesh& mesh, bool ascii = false,
+                      const std::vector<Vec3f>* normals = nullptr) {
+  if (normals && normals->size() != mesh.positions.size())
+    throw Error(path, "cannot write " + std::to_string(normals->size()) + " normals for " +
+                          std::to_string(mesh.positions.size()) + " vertices");
   std::string out = "ply\nformat ";
   out += ascii ? "ascii" : "binary_little_endian";
   out += " 1.0\ncomment written by difftrans\nelement vertex " + std::to_string(mesh.positions.size()) +
-         "\nproperty float x\nproperty float y\nproperty float z\nelement face " +
-         std::to_string(mesh.triangles.size()) + "\nproperty list uchar int vertex_indices\nend_header\n";
+         "\nproperty float x\nproperty float y\nproperty float z\n";
+  if (normals) out += "property float nx\nproperty float ny\nproperty float nz\n";
+  out += "element face " + std::to_string(mesh.triangles.size()) +
+         "\nproperty list uchar int vertex_indices\nend_header\n";
   if (ascii) {
-    char line[128];
-    for (const auto& p : mesh.positions) {
-      std::snprintf(line, sizeof(line), "%.9g %.9g %.9g\n", double(p.x), double(p.y), double(p.z));
+    char line[256];
+    for (std::size_t v = 0; v < mesh.positions.size(); ++v) {
+      const Vec3f& p = mesh.positions[v];
+      std::snprintf(line, sizeof(line), "%.9g %.9g %.9g", double(p.x), double(p.y), double(p.z));
       out += line;
+      if (normals) {
+        const Vec3f& n = (*normals)[v];
+        std::snprintf(line, sizeof(line), " %.9g %.9g %.9g", double(n.x), double(n.y), double(n.z));
+        out += line;
+      }
+      out += '\n';
     }
     for (const auto& f : mesh.triangles) {
       std::snprintf(line, sizeof(line), "3 %d %d %d\n", f.x, f.y, f.z);
@@ -360,8 +374,11 @@ inline void write_ply(const std::filesystem::path& path, const Mesh& mesh, bool 
       if (c != 1) std::reverse(b, b + n);  // big-endian host
       out.append(reinterpret_cast<const char*>(b), n);
     };
-    for (const auto& p : mesh.positions)
-      for (int c = 0; c < 3; ++c) put(&p[c], 4);
+    for (std::size_t v = 0; v < mesh.positions.size(); ++v) {
+      for (int c = 0; c < 3; ++c) put(&mesh.positions[v][c], 4);
+      if (normals)
+        for (int c = 0; c < 3; ++c) put(&(*normals)[v][c], 4);
+    }
     for (const auto& f : mesh.triangles) {
       out.push_back(char(3));
       for (int c = 0; c < 3; ++c) {

@@ -62,7 +62,7 @@ inline void write_png8(const std::filesystem::path& path, const Image8& image) {
     throw Error(path, "cannot write PNG");
 }
 
-// Writes a linear image tone-mapped per PROTOCOL.md (8-bit sRGB).
+// Writes a linear image tone-mapped as docs/conventions.md says (8-bit sRGB).
 inline void write_png(const std::filesystem::path& path, const Image& image) {
   check_shape(image, path);
   check_finite(image, path);

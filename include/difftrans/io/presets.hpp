@@ -1,4 +1,4 @@
-// The benchmark scenes of PROTOCOL.md as data: presets (mesh, IoR, absorption,
+// The benchmark scenes of docs/benchmark-scenes.md as data: presets (mesh, IoR, absorption,
 // environment, views) and their variants, Fibonacci camera directions, and the
 // heterogeneous "bands" absorption field of monkey-bands.
 #pragma once
@@ -17,7 +17,7 @@ namespace difftrans::io {
 
 // ------------------------------------------------------------ camera directions
 
-// Which part of the sphere the cameras sit on. PROTOCOL.md: the whole sphere,
+// Which part of the sphere the cameras sit on (docs/benchmark-scenes.md): the whole sphere,
 // or the upper half above y = 0.05 (so no camera looks up from the floor).
 enum class ViewSphere { sphere, upper_hemisphere };
 
@@ -67,7 +67,7 @@ inline ViewOffsets view_offsets(std::uint64_t seed) {
 
 // ------------------------------------------------------------ absorption "bands"
 
-// monkey-bands (PROTOCOL.md): sigma_a = (0.5, 2, 5) above y = 0 and (5, 2, 0.5)
+// monkey-bands (docs/benchmark-scenes.md): sigma_a = (0.5, 2, 5) above y = 0 and (5, 2, 0.5)
 // below, joined by a smooth step of width 0.1 centred on y = 0: with
 // t = clamp((y + 0.05) / 0.1, 0, 1), s = t² (3 − 2t),
 // sigma(y) = below + (above − below) s. Coordinates in the normalized frame.
@@ -149,7 +149,7 @@ inline const char* to_string(AbsorptionModel a) {
   return a == AbsorptionModel::none ? "none" : a == AbsorptionModel::homogeneous ? "homogeneous" : "bands";
 }
 
-// One benchmark scene of PROTOCOL.md (files are names inside shared/data).
+// One benchmark scene of docs/benchmark-scenes.md (files are names inside data/).
 struct Preset {
   std::string id;
   std::string mesh;         // meshes/NAME
@@ -202,14 +202,14 @@ inline const Preset& find_preset(const std::string& id) {
   throw std::invalid_argument("unknown preset '" + id + "' (known: " + ids + ")");
 }
 
-// The four shared environment maps (envmaps/NAME), in a fixed order.
+// The four environment maps of data/envmaps (envmaps/NAME), in a fixed order.
 inline std::vector<std::string> shared_environments() {
   std::vector<std::string> names;
   for (const auto& p : presets()) names.push_back(p.environment);
   return names;
 }
 
-// The shared environment maps other than `training` (PROTOCOL.md: relighting).
+// The environment maps other than `training` (docs/benchmark-scenes.md: relighting).
 inline std::vector<std::string> relighting_environments(const std::string& training) {
   std::vector<std::string> names;
   for (const auto& n : shared_environments())
@@ -217,7 +217,7 @@ inline std::vector<std::string> relighting_environments(const std::string& train
   return names;
 }
 
-// Views per relighting environment (PROTOCOL.md).
+// Views per relighting environment (docs/benchmark-scenes.md).
 inline constexpr int relighting_views = 10;
 
 // Resolution and view counts of a variant, and the reference render settings.
@@ -230,7 +230,7 @@ struct Variant {
   int max_depth = 16;        // reference: depth 16, no pruning, exact absorption
 };
 
-// PROTOCOL.md: full 256² and 100 views, quick 128² and 50, test 64² and 24.
+// docs/benchmark-scenes.md: full 256² and 100 views, quick 128² and 50, test 64² and 24.
 // The protocol gives 20 test views and leaves the test-suite variant's count
 // open; it takes 8, so the suite stays fast.
 inline Variant find_variant(const std::string& name) {

@@ -1,4 +1,4 @@
-// Geometry metrics of PROTOCOL.md: both meshes normalized with the ground
+// Geometry metrics of docs/metrics.md: both meshes normalized with the ground
 // truth's unit-box transform, area-weighted point samples (fixed seed), nearest
 // neighbours by k-d tree (nanoflann); Chamfer distance = mean_P d^2 + mean_Q d^2,
 // F1 at tau = 2PR / (P + R).

@@ -1,4 +1,4 @@
-// Image metrics of PROTOCOL.md, on images tone-mapped to 8 bits (exposure 1,
+// Image metrics of docs/metrics.md, on images tone-mapped to 8 bits (exposure 1,
 // clamp, sRGB): PSNR over the frame and inside the object mask, and SSIM
 // (Wang et al. 2004: Gaussian window 11, sigma 1.5, K1 0.01, K2 0.03, per
 // channel, averaged; the window stays inside the image, "valid" filtering).
@@ -111,7 +111,7 @@ inline double ssim(const Image8View& a, const Image8View& b) {
 }
 
 // PSNR, PSNR inside the mask (if given) and SSIM of two linear images, both
-// tone-mapped per PROTOCOL.md first.
+// tone-mapped as docs/conventions.md says first.
 inline ImageMetrics evaluate_image(const io::Image& predicted, const io::Image& truth, const io::Mask* mask = nullptr) {
   detail::require_same_size(predicted.width, predicted.height, truth.width, truth.height, "evaluate_image");
   const auto a = io::tone_map(predicted), b = io::tone_map(truth);

@@ -1,4 +1,4 @@
-// Index-of-refraction error of PROTOCOL.md: |eta_predicted - eta_true|.
+// Index-of-refraction error of docs/metrics.md: |eta_predicted - eta_true|.
 #pragma once
 
 #include <cmath>

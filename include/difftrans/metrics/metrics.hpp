@@ -1,5 +1,5 @@
 // difftrans::metrics umbrella header: Chamfer / F1, PSNR / SSIM, IoR error
-// (PROTOCOL.md). Host code; link difftrans::io.
+// (docs/metrics.md). Host code; link difftrans::io.
 #pragma once
 
 #include "difftrans/metrics/chamfer.hpp"

@@ -40,6 +40,13 @@ struct AdamOptions {
   float eps = 1e-8f;
 };
 
+// What an Adam-type optimizer remembers between steps: the moments and the
+// step count. state() / restore() carry it through a checkpoint.
+struct AdamState {
+  std::vector<float> g1, g2;
+  int steps = 0;
+};
+
 namespace detail {
 
 // The moment state both variants share: g1, g2 and the step count.
@@ -61,6 +68,16 @@ class AdamMoments {
   AdamOptions& options() { return options_; }
   const std::vector<float>& first_moment() const { return g1_; }
   const std::vector<float>& second_moment() const { return g2_; }
+
+  AdamState state() const { return {g1_, g2_, steps_}; }
+  // Continues from a saved state (its size becomes the optimizer's size).
+  void restore(const AdamState& state) {
+    if (state.g1.size() != state.g2.size() || state.steps < 0)
+      throw std::invalid_argument("Adam::restore: moments of different sizes or a negative step count");
+    g1_ = state.g1;
+    g2_ = state.g2;
+    steps_ = state.steps;
+  }
 
  protected:
   // Updates g1, g2 with grad and returns the bias corrections 1 − β^t.

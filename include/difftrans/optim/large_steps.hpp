@@ -197,6 +197,17 @@ class LargeStepsOptimizer {
   const AdamUniform& adam() const { return adam_; }
   const std::vector<float>& u() const { return u_; }
 
+  // Continues from a saved u() and adam().state() on this topology (the
+  // positions follow from u; a checkpoint need not store them).
+  void restore(const std::vector<std::int32_t>& triangles, std::int32_t vertices, const std::vector<float>& u,
+               const AdamState& adam) {
+    if (u.size() != 3 * std::size_t(vertices) || adam.g1.size() != u.size())
+      throw std::invalid_argument("LargeStepsOptimizer::restore: sizes do not match the vertex count");
+    steps_.set_topology(triangles, vertices);
+    u_ = u;
+    adam_.restore(adam);
+  }
+
  private:
   LargeSteps steps_;
   AdamUniform adam_;

@@ -107,7 +107,7 @@ inline io::Image environment_view(const io::Frame& f, const scene::EnvMap& env) 
   });
 }
 
-// PSNR (PROTOCOL tone mapping) of the environment against the background
+// PSNR (docs/metrics.md) of the environment against the background
 // pixels of held-out frames, over all their background pixels together;
 // radiance(origin, direction) as for environment_view_with.
 template <class Radiance>

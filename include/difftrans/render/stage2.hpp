@@ -22,6 +22,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <filesystem>
 #include <numeric>
 #include <random>
 #include <string>
@@ -29,6 +30,7 @@
 
 #include "difftrans/geometry/regularizers.hpp"
 #include "difftrans/geometry/stage1.hpp"
+#include "difftrans/io/checkpoint.hpp"
 #include "difftrans/optim/adam.hpp"
 #include "difftrans/optim/large_steps.hpp"
 #include "difftrans/render/host_scene.hpp"
@@ -339,6 +341,89 @@ class Stage2 {
     history_.push_back(st);
     ++iteration_;
     return st;
+  }
+
+  // Checkpoint: the iteration, the unknowns (IoR, absorption, vertices), the
+  // optimizers' moments and the per-iteration history, replaced whole or not
+  // at all (io/checkpoint.hpp). `run` names the settings and inputs the fit
+  // was started with; load() refuses a checkpoint of another run. With one
+  // worker, a resumed fit repeats the uninterrupted one bit for bit (the
+  // batches are drawn from the seed and the iteration).
+  void save(const std::filesystem::path& path, const std::string& run) const {
+    io::CheckpointWriter f(path, "DTS2CK01");
+    f.text(run);
+    f.value(std::int32_t(iteration_));
+    f.value(scene_.ior);
+    f.array(scene_.absorption_raw);
+    f.array(scene_.mesh.positions);
+    f.value(std::uint8_t(positions_started_));
+    for (const optim::AdamState& a : {ior_adam_.state(), absorption_adam_.state(), positions_.adam().state()}) {
+      f.value(std::int32_t(a.steps));
+      f.array(a.g1);
+      f.array(a.g2);
+    }
+    f.array(positions_.u());
+    std::vector<double> losses;  // loss, colour, tone, mask per iteration
+    std::vector<float> materials;  // IoR, mean σ (RGB) per iteration
+    for (const Stage2Stats& h : history_) {
+      losses.insert(losses.end(), {h.loss, h.color, h.tone, h.mask});
+      materials.insert(materials.end(), {h.ior, h.mean_sigma.x, h.mean_sigma.y, h.mean_sigma.z});
+    }
+    f.array(losses);
+    f.array(materials);
+    f.commit();
+  }
+
+  // Resumes from save()'s file; false, changing nothing, when the file is
+  // absent, damaged, of another run or of another mesh or grid size.
+  bool load(const std::filesystem::path& path, const std::string& run) {
+    io::CheckpointReader f(path, "DTS2CK01");
+    std::string saved_run;
+    if (!f.text(saved_run, 1u << 20) || saved_run != run) return false;
+    std::int32_t it = 0;
+    float ior = 0.0f;
+    std::vector<float> absorption, positions, u;
+    std::uint8_t started = 0;
+    optim::AdamState adam[3];
+    const std::uint64_t na = scene_.absorption_raw.size(), np = scene_.mesh.positions.size();
+    f.value(it);
+    f.value(ior);
+    f.array(absorption, na);
+    f.array(positions, np);
+    f.value(started);
+    for (optim::AdamState& a : adam) {
+      f.value(a.steps);
+      f.array(a.g1, std::max(na, np));
+      f.array(a.g2, std::max(na, np));
+    }
+    f.array(u, np);
+    std::vector<double> losses;
+    std::vector<float> materials;
+    f.array(losses, 4u << 24);
+    f.array(materials, 4u << 24);
+    if (!f.complete() || it < 0 || it > config_.iterations || absorption.size() != na || positions.size() != np ||
+        adam[0].g1.size() != 1 || adam[1].g1.size() != na || (started && (u.size() != np || adam[2].g1.size() != np)) ||
+        losses.size() != 4 * std::size_t(it) || materials.size() != 4 * std::size_t(it) || !std::isfinite(ior))
+      return false;
+    scene_.ior = ior;
+    scene_.absorption_raw = std::move(absorption);
+    scene_.mesh.positions = std::move(positions);
+    scene_.positions_changed();
+    ior_adam_.restore(adam[0]);
+    absorption_adam_.restore(adam[1]);
+    positions_started_ = started != 0;
+    if (positions_started_)
+      positions_.restore(scene_.mesh.triangles, std::int32_t(np / 3), u, adam[2]);
+    history_.assign(std::size_t(it), Stage2Stats{});
+    for (std::size_t i = 0; i < history_.size(); ++i) {
+      Stage2Stats& h = history_[i];
+      h.iteration = int(i);
+      h.loss = losses[4 * i], h.color = losses[4 * i + 1], h.tone = losses[4 * i + 2], h.mask = losses[4 * i + 3];
+      h.ior = materials[4 * i];
+      h.mean_sigma = Vec3f(materials[4 * i + 1], materials[4 * i + 2], materials[4 * i + 3]);
+    }
+    iteration_ = it;
+    return true;
   }
 
   // Mean σ over the grid vertices, per channel.

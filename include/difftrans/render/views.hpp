@@ -1,6 +1,6 @@
 // Rendering whole views for programs: a HostScene from an io mesh, material and
 // environment image; the box-filtered image and the centre-ray object mask of a
-// camera; the reference settings of PROTOCOL.md.
+// camera; the reference settings of docs/benchmark-scenes.md.
 #pragma once
 
 #include <cmath>
@@ -40,12 +40,12 @@ inline HostScene make_host_scene(const io::Mesh& mesh, const io::Material& mater
   return s;
 }
 
-// An equirectangular environment (PROTOCOL.md's convention, row 0 = +Y).
+// An equirectangular environment (docs/conventions.md, row 0 = +Y).
 inline void set_environment(HostScene& s, const io::Image& equirect) {
   s.set_environment_map(equirect.rgb, equirect.width, equirect.height);
 }
 
-// PROTOCOL.md reference renders: depth 16, no pruning, exact absorption
+// docs/benchmark-scenes.md reference renders: depth 16, no pruning, exact absorption
 // integration, n x n stratified samples per pixel (n = 4: 16 samples).
 inline PassOptions reference_pass_options(int max_depth = 16, int samples_per_axis = 4) {
   PassOptions o;

@@ -149,7 +149,7 @@ inline Camera look_at_camera(const Vec3f& eye, const Vec3f& target, const Vec3f&
   return Camera::from_fov_y(look_at_matrix(eye, target, up), fov_y, w, h);
 }
 
-// The benchmark protocol's camera (PROTOCOL.md): on the sphere of radius 3
+// The benchmark scenes' camera (docs/benchmark-scenes.md): on the sphere of radius 3
 // in direction `dir` from the origin, looking at the origin, +Y up, vertical
 // field of view 40 degrees.
 inline constexpr float protocol_camera_radius = 3.0f;

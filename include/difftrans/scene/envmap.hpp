@@ -10,7 +10,7 @@
 
 namespace difftrans::scene {
 
-// Convention (PROTOCOL.md), +Y up: direction d = (x, y, z) maps to
+// Convention (docs/conventions.md), +Y up: direction d = (x, y, z) maps to
 //   u = 0.5 + atan2(x, -z) / (2 pi)   in [0, 1], to the right,
 //   v = acos(y) / pi                  in [0, 1], down (v = 0 is +Y).
 // So -Z is the map's centre (0.5, 0.5), +X is u = 0.75, -X u = 0.25 and +Z
