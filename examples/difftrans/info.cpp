@@ -4,10 +4,13 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <map>
+#include <string>
 #include <memory>
 #include <set>
 
 #include "command.hpp"
+#include "scene_options.hpp"
 #include "difftrans/io/dataset.hpp"
 
 namespace difftrans::cli {
@@ -19,6 +22,7 @@ struct InfoOptions {
   std::string dir;
   bool cameras_only = false;
   bool json = false;
+  MaskCliOptions masks;
 };
 
 std::string fixed(double v, int digits = 3) {
@@ -32,12 +36,14 @@ io::Json summarize(const io::Split& split) {
   j["file"] = split.file.string();
   j["views"] = split.frames.size();
   std::size_t env_only = 0, with_mask = 0, mask_pixels = 0, pixels = 0;
+  std::map<std::string, std::size_t> mask_sources;
   std::set<std::pair<int, int>> sizes;
   std::set<std::string> fovs;
   double r_min = INFINITY, r_max = 0.0, off_axis_max = 0.0;
   for (const auto& f : split.frames) {
     env_only += f.environment_only;
-    with_mask += !f.mask_path.empty();
+    with_mask += f.has_mask();
+    if (f.has_mask()) ++mask_sources[io::to_string(f.mask_source)];
     sizes.insert({f.intrinsics.width, f.intrinsics.height});
     fovs.insert(fixed(f.intrinsics.fov_y() * 180.0 / M_PI, 2));
     const Vec3d c = f.position();
@@ -56,6 +62,7 @@ io::Json summarize(const io::Split& split) {
   }
   j["environment_only"] = env_only;
   j["with_mask"] = with_mask;
+  j["mask_sources"] = mask_sources;
   io::Json res = io::Json::array();
   for (const auto& [w, h] : sizes) res.push_back({w, h});
   j["resolutions"] = res;
@@ -72,6 +79,10 @@ void print_split(const char* name, const io::Json& s) {
   std::printf("%s: %s\n", name, s["file"].get<std::string>().c_str());
   std::printf("  views: %zu (%zu environment-only, %zu with a mask)\n", s["views"].get<std::size_t>(),
               s["environment_only"].get<std::size_t>(), s["with_mask"].get<std::size_t>());
+  std::string sources;
+  for (const auto& [name, n] : s["mask_sources"].items())
+    sources += (sources.empty() ? "" : ", ") + std::to_string(n.get<std::size_t>()) + " " + name;
+  if (!sources.empty()) std::printf("  masks from: %s\n", sources.c_str());
   std::string res;
   for (const auto& r : s["resolutions"]) res += (res.empty() ? "" : ", ") + r[0].dump() + " x " + r[1].dump();
   std::printf("  resolution: %s\n", res.c_str());
@@ -90,11 +101,12 @@ void run(const InfoOptions& o) {
   io::LoadOptions options;
   options.read_pixels = !o.cameras_only;
   options.skip_bad_frames = true;
+  options.masks = mask_options(o.masks);
   if (!o.json) progress("info: loading " + o.dir + (o.cameras_only ? " (cameras only)" : ""));
   const io::Scene scene = io::load_scene(o.dir, options);
   io::Json j = io::Json::object();
   j["dir"] = scene.dir.string();
-  j["source"] = scene.from_colmap ? "colmap" : "transforms";
+  j["source"] = scene.from_colmap ? "colmap " + scene.colmap_format : std::string("transforms");
   j["train"] = summarize(scene.train);
   if (!scene.test.frames.empty()) j["test"] = summarize(scene.test);
   j["environment"] = io::to_string(scene.settings.environment);
@@ -113,7 +125,8 @@ void run(const InfoOptions& o) {
     return;
   }
   std::printf("scene: %s (%s)\n", scene.dir.string().c_str(),
-              scene.from_colmap ? "COLMAP text model" : "transforms_*.json");
+              scene.from_colmap ? ("COLMAP " + scene.colmap_format + " model in " + scene.colmap_model.string()).c_str()
+                                : "transforms_*.json");
   print_split("train", j["train"]);
   if (j.contains("test")) print_split("test", j["test"]);
   std::printf("environment: %s%s\n", io::to_string(scene.settings.environment),
@@ -136,9 +149,10 @@ void run(const InfoOptions& o) {
 void add_info(CLI::App& app) {
   auto o = std::make_shared<InfoOptions>();
   CLI::App* cmd = app.add_subcommand("info", "Load a scene directory and print a summary (bad inputs as warnings)");
-  cmd->add_option("SCENE_DIR", o->dir, "scene directory (transforms_*.json or a COLMAP text model)")->required();
+  cmd->add_option("SCENE_DIR", o->dir, "scene directory (transforms_*.json or a COLMAP model, binary or text)")->required();
   cmd->add_flag("--cameras-only", o->cameras_only, "read cameras and paths only, not the pixels");
   cmd->add_flag("--json", o->json, "print the summary as JSON");
+  add_mask_options(cmd, o->masks);
   cmd->callback([o] { run(*o); });
 }
 

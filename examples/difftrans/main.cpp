@@ -15,7 +15,8 @@
   X(evaluate)                 \
   X(info)                     \
   X(shape)                    \
-  X(export)
+  X(export)                   \
+  X(degrade)
 
 namespace difftrans::cli {
 #define DIFFTRANS_DECLARE(name) void add_##name(CLI::App& app);

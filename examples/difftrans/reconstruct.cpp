@@ -12,6 +12,7 @@
 
 #include "command.hpp"
 #include "long_run.hpp"
+#include "scene_options.hpp"
 #include "stages.hpp"
 #include "views.hpp"
 
@@ -26,6 +27,8 @@ namespace {
 struct ReconstructOptions {
   fs::path scene, out;
   std::string stages = "environment";
+  MaskCliOptions masks;
+  ExposureCliOptions exposure;
 };
 
 }  // namespace
@@ -50,6 +53,8 @@ void add_reconstruct(CLI::App& app) {
   cmd->add_option("scene", opt->scene, "Scene directory (transforms_train.json, images, masks)")->required();
   cmd->add_option("--out", opt->out, "Output directory")->required();
   cmd->add_option("--stages", opt->stages, "Stages to run, comma-separated: environment, geometry, materials")->capture_default_str();
+  add_mask_options(cmd, opt->masks);
+  add_exposure_options(cmd, opt->exposure);
   add_environment_options(cmd, *environment);
   add_geometry_options(cmd, *geometry);
   add_materials_options(cmd, *materials);
@@ -62,9 +67,15 @@ void add_reconstruct(CLI::App& app) {
     for (const auto& s : stages)
       if (s != "environment" && s != "geometry" && s != "materials")
         throw std::runtime_error("--stages: '" + s + "' is not a stage (stages: environment, geometry, materials)");
+    io::LoadOptions load;
+    load.masks = mask_options(opt->masks);
     progress("reconstruct: loading " + opt->scene.string());
-    const io::Scene scene = io::load_scene(opt->scene);
+    io::Scene scene = io::load_scene(opt->scene, load);
     for (const auto& w : scene.warnings) warn(w);
+    const io::Json exposure = apply_exposure_option(scene, opt->exposure);
+    if (exposure["source"] != "none" || exposure.contains("reason"))
+      progress("reconstruct: exposure " + exposure["scale"].dump() + " (" + exposure["source"].get<std::string>() +
+               (exposure.contains("reason") ? ": " + exposure["reason"].get<std::string>() : std::string()) + ")");
     fs::create_directories(opt->out);
     io::Json result = io::Json::object();
     const fs::path record = opt->out / "reconstruct.json";
@@ -76,6 +87,8 @@ void add_reconstruct(CLI::App& app) {
       }
     }
     result["scene"] = opt->scene.string();
+    result["masks"] = describe(load.masks);
+    result["exposure"] = exposure;
     // SIGINT / SIGTERM: the running stage saves its checkpoint and stops;
     // the record of every finished stage is already on disk
     const StopSignals stop_signals;

@@ -1,6 +1,12 @@
 // Scene directories: transforms_*.json with masks, scene.json, gt/, COLMAP
-// fallback; cameras-only loading; every kind of bad input; write and reload.
+// fallback (text, binary in sparse/0); masks from files, a folder, the alpha
+// channel or a threshold; cameras-only loading; every kind of bad input;
+// write and reload.
 #include "difftrans/io/dataset.hpp"
+
+#include <cstdint>
+#include <string>
+#include <vector>
 
 #include "io/fixtures.hpp"
 
@@ -157,7 +163,8 @@ TEST_CASE("bad scene input: each error names the file and what is wrong") {
   // missing pieces
   fs::remove(train);
   CHECK(error_of([&] { io::load_scene(dir.path()); }) ==
-        t + ": file not found (and no COLMAP cameras.txt + images.txt in the scene directory)");
+        t + ": file not found (and no COLMAP model, cameras.bin + images.bin or cameras.txt + images.txt, in the scene "
+                "directory, sparse/0 or sparse)");
   CHECK(error_of([&] { io::load_scene(dir / "absent"); }) == (dir / "absent").string() + ": scene directory not found");
 }
 
@@ -217,4 +224,167 @@ TEST_CASE("write_transforms and write_scene_settings, then load again") {
   CHECK(back.test.frames[0].intrinsics.fy == 12.0);
   CHECK(back.settings.environment == io::EnvironmentKind::near);
   CHECK(back.settings.aabb->lo.x == -1.0);
+}
+
+TEST_CASE("COLMAP binary model in sparse/0 with transforms_test.json beside it; binary preferred over text") {
+  TempDir dir;
+  io::Split split;
+  for (int i = 0; i < 3; ++i) {
+    io::Frame f;
+    f.name = "v" + std::to_string(i);
+    f.image_path = dir / ("images/" + f.name + ".png");
+    f.intrinsics = io::Intrinsics::from_fov_y(8, 6, 0.7);
+    f.camera_to_world[3] = glm::dvec4(0.0, 0.0, 3.0 + i, 1.0);
+    io::write_image(in_new_dir(f.image_path), io::Image(8, 6, 0.5f));
+    io::write_mask(in_new_dir(dir / ("masks/" + f.name + ".png")), io::Mask(8, 6, true));
+    split.frames.push_back(f);
+  }
+  io::write_colmap_binary(dir / "sparse/0", split, dir / "images");
+  io::Split test;
+  test.frames.push_back(split.frames[0]);
+  io::write_transforms(dir / "transforms_test.json", test);
+  const io::Scene s = io::load_scene(dir.path());
+  CHECK(s.from_colmap);
+  CHECK(s.colmap_format == "binary");
+  CHECK(s.colmap_model == dir / "sparse/0");
+  REQUIRE(s.train.frames.size() == 3);
+  CHECK(s.train.frames[2].position().z == doctest::Approx(5.0));
+  CHECK(s.train.frames[1].mask.count() == 48);
+  CHECK(s.test.frames.size() == 1);
+  CHECK(s.warnings.empty());
+  write_text(dir / "sparse/0/cameras.txt", "1 PINHOLE 8 6 1 1 4 3\n");
+  write_text(dir / "sparse/0/images.txt", "1 1 0 0 0 0 0 0 1 v0.png\n\n");
+  CHECK(io::load_scene(dir.path()).train.frames.size() == 3);
+  fs::remove(dir / "sparse/0/images.bin");
+  const io::Scene text = io::load_scene(dir.path());
+  CHECK(text.colmap_format == "text");
+  CHECK(text.train.frames.size() == 1);
+  fs::remove_all(dir / "sparse");
+  CHECK(contains(error_of([&] { io::load_scene(dir.path()); }),
+                 "transforms_train.json: file not found (and no COLMAP model, cameras.bin + images.bin or cameras.txt + "
+                 "images.txt, in the scene directory, sparse/0 or sparse)"));
+}
+
+namespace {
+
+// 4 x 2 RGBA image: alpha 255 on the left half, 0 on the right; the right half keeps its colour.
+io::Image8 rgba_image(std::uint8_t background = 200) {
+  io::Image8 im{4, 2, 4, {}};
+  for (int y = 0; y < 2; ++y)
+    for (int x = 0; x < 4; ++x) {
+      const std::uint8_t v = x < 2 ? 60 : background;
+      im.data.insert(im.data.end(), {v, v, v, std::uint8_t(x < 2 ? 255 : 0)});
+    }
+  return im;
+}
+
+void write_frames(const fs::path& dir, const std::string& ext) {
+  write_text(dir / "transforms_train.json",
+             std::string(R"({"camera_angle_x": 0.8, "w": 4, "h": 2, "frames": [{"file_path": "images/a)") + ext +
+                 R"(", "transform_matrix": )" + identity_at(3) + "}]}");
+}
+
+}  // namespace
+
+TEST_CASE("masks from the alpha channel: automatic when there is no mask file, or asked for") {
+  TempDir dir;
+  io::write_png8(in_new_dir(dir / "images/a.png"), rgba_image());
+  write_frames(dir.path(), ".png");
+  io::Scene s = io::load_scene(dir.path());
+  const io::Frame& f = s.train.frames[0];
+  CHECK(f.mask_source == io::MaskSource::alpha);
+  CHECK(f.has_mask());
+  CHECK(f.mask.inside == std::vector<std::uint8_t>{1, 1, 0, 0, 1, 1, 0, 0});
+  CHECK(f.image.at(3, 0).x == doctest::Approx(io::srgb_to_linear(200.0f / 255.0f)));  // the colour is kept
+  CHECK_FALSE(contains(joined(s.warnings), "has no mask"));
+  // a mask file wins over the alpha channel unless alpha is asked for
+  io::Mask file_mask(4, 2);
+  file_mask.inside[0] = 1;
+  io::write_mask(in_new_dir(dir / "masks/a.png"), file_mask);
+  CHECK(io::load_scene(dir.path()).train.frames[0].mask.count() == 1);
+  io::LoadOptions alpha;
+  alpha.masks.source = io::MaskSource::alpha;
+  CHECK(io::load_scene(dir.path(), alpha).train.frames[0].mask.count() == 4);
+  // cameras only: the source is decided from the header, no pixels read
+  io::LoadOptions cameras = alpha;
+  cameras.read_pixels = false;
+  const io::Scene c = io::load_scene(dir.path(), cameras);
+  CHECK(c.train.frames[0].mask_source == io::MaskSource::alpha);
+  CHECK(c.train.frames[0].mask.width == 0);
+  // none: no masks, no warnings about them
+  io::LoadOptions none;
+  none.masks.source = io::MaskSource::none;
+  const io::Scene n = io::load_scene(dir.path(), none);
+  CHECK_FALSE(n.train.frames[0].has_mask());
+  CHECK_FALSE(contains(joined(n.warnings), "has no mask"));
+}
+
+TEST_CASE("alpha masks: an image without alpha is an error when alpha is asked for; opaque and black backgrounds warned") {
+  TempDir dir;
+  io::write_image(in_new_dir(dir / "images/a.exr"), io::Image(4, 2, 0.5f));
+  write_frames(dir.path(), ".exr");
+  io::LoadOptions alpha;
+  alpha.masks.source = io::MaskSource::alpha;
+  CHECK(error_of([&] { io::load_scene(dir.path(), alpha); }) ==
+        (dir / "images/a.exr").string() + ": the image has no alpha channel to take the mask from (masks: alpha; only "
+                                          "8-bit images such as PNG carry one here)");
+  // automatic, an EXR without mask file: no mask, a warning
+  CHECK(contains(joined(io::load_scene(dir.path()).warnings), "frames[0] (a) has no mask"));
+  // an opaque alpha channel is no mask (automatic)
+  TempDir opaque;
+  io::Image8 im = rgba_image();
+  for (std::size_t p = 3; p < im.data.size(); p += 4) im.data[p] = 255;
+  io::write_png8(in_new_dir(opaque / "images/a.png"), im);
+  write_frames(opaque.path(), ".png");
+  const io::Scene o = io::load_scene(opaque.path());
+  CHECK_FALSE(o.train.frames[0].has_mask());
+  CHECK(contains(joined(o.warnings), "images/a.png: the alpha channel is opaque everywhere, so it is no mask"));
+  // a cut-out: every background pixel black
+  TempDir cut;
+  io::write_png8(in_new_dir(cut / "images/a.png"), rgba_image(0));
+  write_frames(cut.path(), ".png");
+  const io::Scene k = io::load_scene(cut.path());
+  CHECK(k.train.frames[0].mask.count() == 4);
+  CHECK(contains(joined(k.warnings), "every pixel outside the alpha mask is black"));
+  // the level: alpha 128 is object at the default level (127), not at 200
+  io::Image8 soft = rgba_image();
+  soft.data[3] = 128;
+  io::write_png8(cut / "images/a.png", soft);
+  io::LoadOptions high;
+  high.masks.level = 200;
+  CHECK(io::load_scene(cut.path()).train.frames[0].mask.count() == 4);
+  CHECK(io::load_scene(cut.path(), high).train.frames[0].mask.count() == 3);
+}
+
+TEST_CASE("threshold masks and a mask folder") {
+  TempDir dir;
+  io::Image img(4, 2, 0.02f);  // dark backdrop
+  img.set(1, 0, {0.9f, 0.1f, 0.1f});
+  img.set(2, 1, {0.3f, 0.3f, 0.3f});
+  io::write_image(in_new_dir(dir / "images/a.exr"), img);
+  write_frames(dir.path(), ".exr");
+  io::LoadOptions t;
+  t.masks.source = io::MaskSource::threshold;
+  t.masks.threshold = 0.5;  // sRGB 0.5 = linear 0.214
+  io::Scene s = io::load_scene(dir.path(), t);
+  CHECK(s.train.frames[0].mask_source == io::MaskSource::threshold);
+  CHECK(s.train.frames[0].mask.inside == std::vector<std::uint8_t>{0, 1, 0, 0, 0, 0, 1, 0});
+  t.masks.threshold = 0.7;  // linear 0.448: only the red pixel
+  CHECK(io::load_scene(dir.path(), t).train.frames[0].mask.count() == 1);
+  t.masks.below = true;  // a bright backdrop: object where darker
+  CHECK(io::load_scene(dir.path(), t).train.frames[0].mask.count() == 7);
+  // a mask folder elsewhere, by frame name
+  TempDir elsewhere;
+  io::Mask m(4, 2);
+  m.inside[5] = 1;
+  io::write_mask(in_new_dir(elsewhere / "a.png"), m);
+  io::LoadOptions files;
+  files.masks.source = io::MaskSource::files;
+  files.masks.dir = elsewhere.path();
+  const io::Scene f = io::load_scene(dir.path(), files);
+  CHECK(f.train.frames[0].mask_path == elsewhere / "a.png");
+  CHECK(f.train.frames[0].mask.inside[5] == 1);
+  fs::remove(elsewhere / "a.png");
+  CHECK(contains(joined(io::load_scene(dir.path(), files).warnings),
+                 "frames[0] (a) has no mask in " + elsewhere.path().string()));
 }

@@ -45,3 +45,25 @@ TEST_CASE("check_finite names the file and the first bad pixel") {
   CHECK(mask.count() == 1);
   CHECK(mask.at(1, 1));
 }
+
+TEST_CASE("mask dilation and erosion by a Euclidean disk") {
+  io::Mask m(9, 9);
+  for (int y = 3; y <= 5; ++y)
+    for (int x = 3; x <= 5; ++x) m.inside[size_t(y) * 9 + size_t(x)] = 1;  // a 3 x 3 square
+  CHECK(io::morph_mask(m, 0).inside == m.inside);
+  const io::Mask d1 = io::morph_mask(m, 1);
+  CHECK(d1.count() == 9 + 4 * 3);  // the 4-neighbours of the square's edges, not its diagonal corners
+  CHECK(d1.at(2, 4));
+  CHECK_FALSE(d1.at(2, 2));
+  const io::Mask d2 = io::morph_mask(m, 2);
+  CHECK(d2.at(2, 2));  // distance sqrt(2) <= 2
+  CHECK_FALSE(d2.at(1, 1));
+  const io::Mask e1 = io::morph_mask(m, -1);
+  CHECK(e1.count() == 1);
+  CHECK(e1.at(4, 4));
+  CHECK(io::morph_mask(m, -2).count() == 0);
+  // pixels beyond the edge do not erode: a full mask stays full
+  CHECK(io::morph_mask(io::Mask(5, 4, true), -2).count() == 20);
+  // dilation then erosion of a square by 1 gives the square back
+  CHECK(io::morph_mask(d1, -1).inside == m.inside);
+}

@@ -1,6 +1,6 @@
 // The scene directory of docs/scene-format.md: transforms_train.json / transforms_test.json
 // (NeRF-synthetic convention, masks per frame), optional scene.json, gt/, or a
-// COLMAP text model; loaded with or without pixels, and written back.
+// COLMAP model (binary or text); loaded with or without pixels, and written back.
 #pragma once
 
 #include <optional>
@@ -31,7 +31,9 @@ struct Scene {
   std::filesystem::path dir;
   Split train;
   Split test;                  // empty when there is no transforms_test.json
-  bool from_colmap = false;    // cameras came from a COLMAP text model
+  bool from_colmap = false;    // training cameras came from a COLMAP model
+  std::filesystem::path colmap_model;  // its folder (DIR, DIR/sparse/0 or DIR/sparse)
+  std::string colmap_format;           // "binary" or "text"
   bool has_scene_json = false;
   SceneSettings settings;
   GroundTruth gt;
@@ -95,7 +97,9 @@ inline Intrinsics read_intrinsics(const JsonReader& top, const JsonReader& frame
 
 // Loads one transforms_*.json. Paths are relative to the JSON file's folder;
 // file_path may omit the extension (.exr, .hdr, .png, .jpg are tried); a
-// frame without mask_path uses masks/NAME.png next to the JSON when it exists.
+// frame without mask_path uses masks/NAME.png next to the JSON when it exists
+// (options.masks says whether masks come from files, the alpha channel or a
+// threshold, and may name another mask folder).
 inline Split load_transforms(const std::filesystem::path& path, const LoadOptions& options = {},
                              std::vector<std::string>* warnings = nullptr) {
   const Json json = read_json(path);
@@ -120,24 +124,30 @@ inline Split load_transforms(const std::filesystem::path& path, const LoadOption
                                  base.string());
       f.name = f.image_path.stem().string();
       f.environment_only = fr.boolean("environment_only", false);
-      if (fr.has("mask_path")) {
-        const std::string mask_path = fr.string("mask_path");
-        f.mask_path = detail::resolve(base, mask_path);
+      std::filesystem::path mask_file;
+      const MaskSource source = options.masks.source;
+      if (source == MaskSource::files || source == MaskSource::automatic) {
         std::error_code ec;
-        if (!std::filesystem::is_regular_file(f.mask_path, ec)) {
-          std::filesystem::path with_png = f.mask_path;
-          with_png += ".png";
-          if (!std::filesystem::is_regular_file(with_png, ec))
-            fr.fail("mask_path", "no mask '" + mask_path + "' in " + base.string());
-          f.mask_path = with_png;
+        if (!options.masks.dir.empty()) {
+          mask_file = mask_in_dir(options.masks.dir, f);
+        } else if (fr.has("mask_path")) {
+          const std::string mask_path = fr.string("mask_path");
+          mask_file = detail::resolve(base, mask_path);
+          if (!std::filesystem::is_regular_file(mask_file, ec)) {
+            std::filesystem::path with_png = mask_file;
+            with_png += ".png";
+            if (!std::filesystem::is_regular_file(with_png, ec))
+              fr.fail("mask_path", "no mask '" + mask_path + "' in " + base.string());
+            mask_file = with_png;
+          }
+        } else {
+          const auto guess = base / "masks" / (f.name + ".png");
+          if (std::filesystem::is_regular_file(guess, ec)) mask_file = guess;
         }
-      } else {
-        std::error_code ec;
-        const auto guess = base / "masks" / (f.name + ".png");
-        if (std::filesystem::is_regular_file(guess, ec)) f.mask_path = guess;
-        else if (!f.environment_only && warnings)
-          warnings->push_back(path.string() + ": frames[" + std::to_string(i) + "] (" + f.name + ") has no mask");
       }
+      if (!choose_mask(f, mask_file, options.masks) && source != MaskSource::none && !f.environment_only && warnings)
+        warnings->push_back(path.string() + ": frames[" + std::to_string(i) + "] (" + f.name + ") has no mask" +
+                            (options.masks.dir.empty() ? std::string() : " in " + options.masks.dir.string()));
       f.intrinsics = detail::read_intrinsics(top, fr, f);
       check_intrinsics(f.intrinsics, path, fr.where());
       if (!warned_distortion && warnings)
@@ -152,7 +162,7 @@ inline Split load_transforms(const std::filesystem::path& path, const LoadOption
       for (int r = 0; r < (rows3 ? 3 : 4); ++r)
         for (int c = 0; c < 4; ++c) f.camera_to_world[c][r] = m[size_t(r) * 4 + size_t(c)];
       check_camera_matrix(f.camera_to_world, path, fr.field("transform_matrix"));
-      if (options.read_pixels) read_frame_pixels(f, path);
+      if (options.read_pixels) read_frame_pixels(f, path, options.masks, warnings);
       split.frames.push_back(std::move(f));
     } catch (const Error& e) {
       if (!options.skip_bad_frames) throw;
@@ -185,8 +195,10 @@ inline SceneSettings load_scene_settings(const std::filesystem::path& path) {
 }
 
 // Loads a scene directory: transforms_train.json (required) and
-// transforms_test.json, or else a COLMAP text model in DIR, DIR/sparse/0 or
-// DIR/sparse with images in DIR/images and masks in DIR/masks; scene.json; gt/.
+// transforms_test.json, or else a COLMAP model, binary (cameras.bin,
+// images.bin) or text (cameras.txt, images.txt), in DIR, DIR/sparse/0 or
+// DIR/sparse with images in DIR/images and masks in DIR/masks (the training
+// views; a transforms_test.json beside it gives held-out views); scene.json; gt/.
 inline Scene load_scene(const std::filesystem::path& dir, const LoadOptions& options = {}) {
   Scene scene;
   scene.dir = dir;
@@ -194,25 +206,28 @@ inline Scene load_scene(const std::filesystem::path& dir, const LoadOptions& opt
   if (!std::filesystem::is_directory(dir, ec))
     throw Error(dir, std::filesystem::exists(dir, ec) ? "is not a directory" : "scene directory not found");
   const auto train = dir / "transforms_train.json";
+  const auto test = dir / "transforms_test.json";
   if (std::filesystem::exists(train, ec)) {
     scene.train = load_transforms(train, options, &scene.warnings);
-    const auto test = dir / "transforms_test.json";
     if (std::filesystem::exists(test, ec)) scene.test = load_transforms(test, options, &scene.warnings);
     else scene.warnings.push_back(test.string() + ": not found; the scene has no held-out views");
   } else {
-    std::filesystem::path model;
-    for (const auto& candidate : {dir, dir / "sparse" / "0", dir / "sparse"})
-      if (std::filesystem::is_regular_file(candidate / "cameras.txt", ec) &&
-          std::filesystem::is_regular_file(candidate / "images.txt", ec)) {
-        model = candidate;
+    for (const auto& candidate : {dir, dir / "sparse" / "0", dir / "sparse"}) {
+      scene.colmap_format = colmap_model_format(candidate);
+      if (!scene.colmap_format.empty()) {
+        scene.colmap_model = candidate;
         break;
       }
-    if (model.empty())
-      throw Error(train, "file not found (and no COLMAP cameras.txt + images.txt in the scene directory)");
+    }
+    if (scene.colmap_model.empty())
+      throw Error(train, "file not found (and no COLMAP model, cameras.bin + images.bin or cameras.txt + images.txt, "
+                         "in the scene directory, sparse/0 or sparse)");
     const auto masks = dir / "masks";
-    scene.train = load_colmap(model, dir / "images", std::filesystem::is_directory(masks, ec) ? masks : std::filesystem::path(),
-                              options, &scene.warnings);
+    scene.train = load_colmap(scene.colmap_model, dir / "images",
+                              std::filesystem::is_directory(masks, ec) ? masks : std::filesystem::path(), options,
+                              &scene.warnings);
     scene.from_colmap = true;
+    if (std::filesystem::exists(test, ec)) scene.test = load_transforms(test, options, &scene.warnings);
   }
   if (scene.train.frames.empty()) throw Error(train, "no usable frames");
   const auto settings = dir / "scene.json";

@@ -1,9 +1,13 @@
 // Cameras and frames of a scene directory as the loaders return them (pinhole
 // intrinsics, camera-to-world in OpenGL axes, optional pixels and mask), with
-// the checks every loader applies: rigid camera matrices, image/mask sizes.
+// the checks every loader applies: rigid camera matrices, image/mask sizes;
+// and where a frame's mask comes from (a mask file, the image's alpha
+// channel, or a threshold on the image).
 #pragma once
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -31,16 +35,46 @@ struct Intrinsics {
   }
 };
 
+// Where object masks come from (LoadOptions::masks.source).
+enum class MaskSource {
+  automatic,  // a mask file (the scene's mask_path or masks/NAME.png) if there is one, else the image's alpha channel if it has one
+  files,      // mask files only (masks.dir when given, else the scene's own)
+  alpha,      // the image's alpha channel (8-bit formats: PNG); an image without one is an error
+  threshold,  // the image itself: object where its brightest channel's sRGB value is above (below) masks.threshold
+  none,       // no masks
+};
+
+inline const char* to_string(MaskSource s) {
+  switch (s) {
+    case MaskSource::automatic: return "auto";
+    case MaskSource::files: return "files";
+    case MaskSource::alpha: return "alpha";
+    case MaskSource::threshold: return "threshold";
+    case MaskSource::none: return "none";
+  }
+  return "?";
+}
+
+struct MaskOptions {
+  MaskSource source = MaskSource::automatic;
+  std::filesystem::path dir;  // files (and automatic): masks DIR/NAME.png (or DIR/FILE_NAME.png) instead of the scene's
+  int level = 127;            // files, alpha: 8-bit values above this are object
+  double threshold = 0.5;     // threshold: sRGB value in (0, 1) of the image's brightest channel
+  bool below = false;         // threshold: object where the image is darker than the threshold (a bright backdrop)
+};
+
 struct Frame {
   std::string name;                  // image file name without folder and extension
   std::filesystem::path image_path;  // resolved, with extension
-  std::filesystem::path mask_path;   // empty when the frame has no mask
+  std::filesystem::path mask_path;   // mask_source files: the mask file, empty when the frame has no mask
+  MaskSource mask_source = MaskSource::files;  // files (mask_path, if any), alpha or threshold; never automatic or none
   Intrinsics intrinsics;
   Mat4<double> camera_to_world{1.0};  // OpenGL axes: the camera looks down -Z, +Y is up
   bool environment_only = false;      // fits the environment, not the object
   Image image;                        // empty unless pixels were read
   Mask mask;                          // empty unless pixels were read and there is a mask
 
+  bool has_mask() const { return mask_source != MaskSource::files || !mask_path.empty(); }
   Vec3d position() const { return Vec3d(camera_to_world[3]); }
   Vec3d forward() const { return -Vec3d(camera_to_world[2]); }
   Vec3d up() const { return Vec3d(camera_to_world[1]); }
@@ -53,8 +87,10 @@ struct Split {
 };
 
 struct LoadOptions {
-  bool read_pixels = true;       // false: cameras and paths only; image files are not opened (unless w, h are absent)
+  bool read_pixels = true;       // false: cameras and paths only; image files are not opened (unless w, h are absent
+                                 // or masks may come from the alpha channel: then only the header is read)
   bool skip_bad_frames = false;  // true: a bad frame becomes a warning and is left out, instead of an Error
+  MaskOptions masks;
 };
 
 // Largest deviation of R^T R from the identity that counts as rigid.
@@ -117,16 +153,101 @@ inline std::string size_text(int w, int h) { return std::to_string(w) + " x " + 
 
 }  // namespace detail
 
+// Where a frame's mask comes from, before any pixels are read. `file` is the
+// mask file that masks.dir or the scene's layout offers (empty: none). Sets
+// frame.mask_source and frame.mask_path; returns false when the frame is left
+// without a mask. masks alpha with an image that has no alpha channel is an
+// Error naming the image.
+inline bool choose_mask(Frame& frame, const std::filesystem::path& file, const MaskOptions& o) {
+  frame.mask_path.clear();
+  frame.mask_source = MaskSource::files;
+  switch (o.source) {
+    case MaskSource::none: return false;
+    case MaskSource::threshold: frame.mask_source = MaskSource::threshold; return true;
+    case MaskSource::alpha:
+      if (!image_has_alpha(frame.image_path))
+        throw Error(frame.image_path, "the image has no alpha channel to take the mask from (masks: alpha; "
+                                      "only 8-bit images such as PNG carry one here)");
+      frame.mask_source = MaskSource::alpha;
+      return true;
+    case MaskSource::files: frame.mask_path = file; return !file.empty();
+    case MaskSource::automatic:
+      if (!file.empty()) {
+        frame.mask_path = file;
+        return true;
+      }
+      if (image_has_alpha(frame.image_path)) {
+        frame.mask_source = MaskSource::alpha;
+        return true;
+      }
+      return false;
+  }
+  return false;
+}
+
+// The mask file for a frame in masks.dir: DIR/NAME.png, else DIR/FILE_NAME.png
+// (e.g. DIR/a.jpg.png, COLMAP's convention); empty when neither exists.
+inline std::filesystem::path mask_in_dir(const std::filesystem::path& dir, const Frame& frame) {
+  std::error_code ec;
+  for (const auto& candidate : {dir / (frame.name + ".png"), dir / (frame.image_path.filename().string() + ".png")})
+    if (std::filesystem::is_regular_file(candidate, ec)) return candidate;
+  return {};
+}
+
 // Reads a frame's image and mask and checks their sizes against each other
-// and against the intrinsics (which `declared_by` defines).
-inline void read_frame_pixels(Frame& frame, const std::filesystem::path& declared_by) {
-  frame.image = read_image(frame.image_path);
+// and against the intrinsics (which `declared_by` defines). The mask comes
+// from frame.mask_source (choose_mask): the file, the alpha channel (> level),
+// or the threshold on the image. With masks.source automatic, an alpha channel
+// that is opaque everywhere is no mask (a warning says so); an alpha mask whose
+// background pixels are all black (a cut-out or premultiplied image, where the
+// environment cannot be seen) is warned about.
+inline void read_frame_pixels(Frame& frame, const std::filesystem::path& declared_by, const MaskOptions& o = {},
+                              std::vector<std::string>* warnings = nullptr) {
   const Intrinsics& k = frame.intrinsics;
-  if (frame.image.width != k.width || frame.image.height != k.height)
-    throw Error(frame.image_path, "image is " + detail::size_text(frame.image.width, frame.image.height) + " but " +
-                                      declared_by.string() + " declares " + detail::size_text(k.width, k.height));
+  const auto check_image_size = [&] {
+    if (frame.image.width != k.width || frame.image.height != k.height)
+      throw Error(frame.image_path, "image is " + detail::size_text(frame.image.width, frame.image.height) + " but " +
+                                        declared_by.string() + " declares " + detail::size_text(k.width, k.height));
+  };
+  if (frame.mask_source == MaskSource::alpha) {
+    const Image8 raw = read_image8(frame.image_path, 4);
+    frame.image = from_srgb8(raw.data.data(), raw.width, raw.height, 4);
+    check_image_size();
+    frame.mask = Mask(raw.width, raw.height);
+    bool opaque = true, black_background = true;
+    for (std::size_t p = 0; p < frame.mask.inside.size(); ++p) {
+      const std::uint8_t* px = &raw.data[p * 4];
+      const bool inside = px[3] > o.level;
+      frame.mask.inside[p] = inside ? 1 : 0;
+      opaque = opaque && inside;
+      if (!inside) black_background = black_background && px[0] == 0 && px[1] == 0 && px[2] == 0;
+    }
+    if (opaque && o.source == MaskSource::automatic) {
+      frame.mask = Mask();
+      frame.mask_source = MaskSource::files;
+      if (warnings)
+        warnings->push_back(frame.image_path.string() + ": the alpha channel is opaque everywhere, so it is no mask; "
+                                                         "the frame has no mask");
+    } else if (!opaque && black_background && warnings) {
+      warnings->push_back(frame.image_path.string() + ": every pixel outside the alpha mask is black (a cut-out or "
+                                                       "premultiplied image?): the background shows no environment");
+    }
+    return;
+  }
+  frame.image = read_image(frame.image_path);
+  check_image_size();
+  if (frame.mask_source == MaskSource::threshold) {
+    const float t = srgb_to_linear(float(o.threshold));
+    frame.mask = Mask(frame.image.width, frame.image.height);
+    for (std::size_t p = 0; p < frame.mask.inside.size(); ++p) {
+      const float* c = &frame.image.rgb[p * 3];
+      const float v = std::max(c[0], std::max(c[1], c[2]));
+      frame.mask.inside[p] = (o.below ? v < t : v > t) ? 1 : 0;
+    }
+    return;
+  }
   if (frame.mask_path.empty()) return;
-  frame.mask = read_mask(frame.mask_path);
+  frame.mask = read_mask(frame.mask_path, o.level);
   if (frame.mask.width != frame.image.width || frame.mask.height != frame.image.height)
     throw Error(frame.mask_path, "mask is " + detail::size_text(frame.mask.width, frame.mask.height) +
                                      " but its image " + frame.image_path.string() + " is " +

@@ -50,6 +50,33 @@ struct Mask {
   }
 };
 
+// The mask grown (radius > 0: dilation) or shrunk (radius < 0: erosion) by
+// |radius| pixels: a pixel is inside after dilation when an inside pixel lies
+// within Euclidean distance |radius| of it, and stays inside after erosion
+// when every pixel of the image within that distance is inside (pixels beyond
+// the image's edge do not count).
+inline Mask morph_mask(const Mask& mask, int radius) {
+  if (radius == 0) return mask;
+  const bool dilate = radius > 0;
+  const int r = dilate ? radius : -radius;
+  Mask out(mask.width, mask.height);
+  for (int y = 0; y < mask.height; ++y)
+    for (int x = 0; x < mask.width; ++x) {
+      bool result = !dilate;
+      for (int dy = -r; dy <= r && result != dilate; ++dy)
+        for (int dx = -r; dx <= r; ++dx) {
+          const int xx = x + dx, yy = y + dy;
+          if (dx * dx + dy * dy > r * r || xx < 0 || yy < 0 || xx >= mask.width || yy >= mask.height) continue;
+          if (mask.at(xx, yy) == dilate) {
+            result = dilate;
+            break;
+          }
+        }
+      out.inside[size_t(y) * size_t(mask.width) + size_t(x)] = result ? 1 : 0;
+    }
+  return out;
+}
+
 // 8-bit values above this are inside the object (docs/scene-format.md: > 127).
 inline constexpr int mask_threshold = 127;
 

@@ -35,6 +35,20 @@ inline Vec2i image_size(const std::filesystem::path& path) {
   return {w, h};
 }
 
+// Whether the image has an alpha channel that read_image8 can read (8-bit
+// formats with grey + alpha or RGBA; .exr and .hdr: false). Reads the header only.
+inline bool image_has_alpha(const std::filesystem::path& path) {
+  const std::string ext = detail::lower_extension(path);
+  if (ext == ".exr" || ext == ".hdr") return false;
+  detail::require_readable(path);
+  int w = 0, h = 0, n = 0;
+  if (!stbi_info(path.string().c_str(), &w, &h, &n)) {
+    const char* why = stbi_failure_reason();
+    throw Error(path, std::string("cannot read image header: ") + (why ? why : "unknown format"));
+  }
+  return n == 2 || n == 4;
+}
+
 // Linear RGB, whatever the format (.png/.jpg are decoded from sRGB).
 inline Image read_image(const std::filesystem::path& path) {
   const std::string ext = detail::lower_extension(path);

@@ -45,11 +45,11 @@ inline Image read_png(const std::filesystem::path& path) {
   return from_srgb8(raw.data.data(), raw.width, raw.height, 3);
 }
 
-// Reads a mask: the image converted to grey, > 127 is object.
-inline Mask read_mask(const std::filesystem::path& path) {
+// Reads a mask: the image converted to grey, > level (default 127) is object.
+inline Mask read_mask(const std::filesystem::path& path, int level = mask_threshold) {
   const Image8 raw = read_image8(path, 1);
   Mask mask(raw.width, raw.height);
-  for (size_t i = 0; i < raw.data.size(); ++i) mask.inside[i] = raw.data[i] > mask_threshold ? 1 : 0;
+  for (size_t i = 0; i < raw.data.size(); ++i) mask.inside[i] = raw.data[i] > level ? 1 : 0;
   return mask;
 }
 
