@@ -8,6 +8,8 @@
 # environment,geometry,materials` and the defaults (masks auto, exposure auto:
 # estimated against gt/envmap.hdr for the 8-bit scenes). Prints a Markdown
 # table of CD, F1 and IoR error per degradation, read from reconstruct.json.
+# The 8-bit and exposure rows start from the clean run's stage-1 meshes (their
+# masks and poses are the clean ones; stage 1 reads nothing else).
 #
 #   bash scripts/capture_report.sh WORK_DIR [extra reconstruct options...]
 #
@@ -65,6 +67,14 @@ for s in $scenes; do
     if ! jq -e '.materials.ior_error' "$out/reconstruct.json" >/dev/null 2>&1; then
       echo "capture_report: $s $name" >&2
       mkdir -p "$out"
+      # 8-bit images and exposure change neither masks nor poses, and stage 1
+      # reads only those: start from the clean run's stage-1 meshes (reconstruct
+      # then reuses them and says "raw_reused": true)
+      case $name in png8|exposure-*)
+        for m in mesh_stage1_raw.obj mesh_stage1.obj; do
+          if [ -f "$work/$tag/$s.clean/$m" ] && [ ! -f "$out/$m" ]; then cp "$work/$tag/$s.clean/$m" "$out/$m"; fi
+        done ;;
+      esac
       "$bin" reconstruct "$scene" --out "$out" --stages environment,geometry,materials "$@" >/dev/null 2>"$out.log"
     fi
   done
