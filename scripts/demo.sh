@@ -3,8 +3,8 @@
 # the difftrans command (Release), renders the spot-clear benchmark scene
 # (test variant), renders its ground truth again from the test cameras and
 # under another environment map (a relight), evaluates the images, then
-# reconstructs it (environment, stage 1, stage 2, short runs) and relights
-# the reconstruction.
+# reconstructs it (environment, stage 1, stage 2, short runs), relights the
+# reconstruction and exports it as glTF and as a Mitsuba scene.
 # Usage: scripts/demo.sh [build-dir]   (default: build/release; output in out/demo)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -54,6 +54,11 @@ step "relight: the reconstruction under blouberg_sunrise_2 against the ground tr
   --scene "$out/scene" --env "$data/envmaps/blouberg_sunrise_2_1k.hdr" --out "$out/relight_reconstruction" --overwrite |
   grep -E '"(psnr|psnr_mask|ssim)"' | head -3
 
+step "export: the reconstruction as glTF 2.0 (.glb: transmission, IoR, volume) and as a Mitsuba 3 scene"
+"$dt" export "$out/reconstruct" --format gltf --out "$out/export_gltf" --overwrite > /dev/null
+"$dt" export "$out/reconstruct" --format mitsuba --out "$out/export_mitsuba" --overwrite > /dev/null
+ls "$out/export_gltf" "$out/export_mitsuba"
+
 echo
 echo "demo: done in $(( $(date +%s) - start )) s. Pictures:"
 echo "  environment        $out/reconstruct/envmap.hdr, $out/reconstruct/environment_comparison.png"
@@ -64,3 +69,4 @@ echo "  scene previews     $out/scene/previews/*.png (masks in $out/scene/masks/
 echo "  relit previews     $out/relight/previews/*.png"
 echo "  contact sheet      $out/relight/contact_sheet.png (training-environment image | relit | error)"
 echo "  metrics            $out/render/evaluate.json, $out/relight/evaluate.json"
+echo "  exported           $out/export_gltf/object.glb (any glTF viewer, Blender), $out/export_mitsuba/scene.xml (Mitsuba 3)"
