@@ -127,13 +127,7 @@ io::Json distant_environment(const io::Scene& scene, const fs::path& out, const 
       }
     if (n) j["psnr_map_seen"] = metrics::detail::psnr_from_mse(se / double(n));
   }
-  write_comparison(
-      scene,
-      [&](const Vec3f&, const Vec3f& d) {
-        ad::ParamReader<float> reader(nullptr);
-        return scene::lookup(reader, env, d);
-      },
-      out / "environment_comparison.png");
+  write_comparison(scene, render::distant_radiance(env), out / "environment_comparison.png");
   return j;
 }
 

@@ -99,12 +99,18 @@ io::Image environment_view_with(const io::Frame& f, const Radiance& radiance) {
   return out;
 }
 
-// The same for a distant map.
-inline io::Image environment_view(const io::Frame& f, const scene::EnvMap& env) {
-  return environment_view_with(f, [&](const Vec3f&, const Vec3f& d) {
+// A distant environment as the radiance(origin, direction) callable that the
+// *_with functions take: the origin does not matter.
+inline auto distant_radiance(const scene::EnvMap& env) {
+  return [&env](const Vec3f&, const Vec3f& d) {
     ad::ParamReader<float> reader(nullptr);
     return scene::lookup(reader, env, d);
-  });
+  };
+}
+
+// The same for a distant map.
+inline io::Image environment_view(const io::Frame& f, const scene::EnvMap& env) {
+  return environment_view_with(f, distant_radiance(env));
 }
 
 // PSNR (docs/metrics.md) of the environment against the background
@@ -134,13 +140,7 @@ double background_psnr_with(const io::Split& split, const Radiance& radiance, in
 }
 
 inline double background_psnr(const io::Split& split, const scene::EnvMap& env, int margin = 2) {
-  return background_psnr_with(
-      split,
-      [&](const Vec3f&, const Vec3f& d) {
-        ad::ParamReader<float> reader(nullptr);
-        return scene::lookup(reader, env, d);
-      },
-      margin);
+  return background_psnr_with(split, distant_radiance(env), margin);
 }
 
 }  // namespace difftrans::render

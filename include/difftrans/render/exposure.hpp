@@ -79,13 +79,7 @@ ExposureEstimate estimate_exposure_with(const io::Split& split, const Radiance& 
 
 inline ExposureEstimate estimate_exposure(const io::Split& split, const scene::EnvMap& env,
                                           const ExposureOptions& opt = {}) {
-  return estimate_exposure_with(
-      split,
-      [&](const Vec3f&, const Vec3f& d) {
-        ad::ParamReader<float> reader(nullptr);
-        return scene::lookup(reader, env, d);
-      },
-      opt);
+  return estimate_exposure_with(split, distant_radiance(env), opt);
 }
 
 // Divides the pixels of every frame that has them by `scale` (radiance = image / scale).
