@@ -11,7 +11,6 @@
 #include <sys/resource.h>
 
 #include "command.hpp"
-#include "long_run.hpp"
 #include "scene_options.hpp"
 #include "stages.hpp"
 #include "views.hpp"
@@ -89,9 +88,9 @@ void add_reconstruct(CLI::App& app) {
     result["scene"] = opt->scene.string();
     result["masks"] = describe(load.masks);
     result["exposure"] = exposure;
-    // SIGINT / SIGTERM: the running stage saves its checkpoint and stops;
-    // the record of every finished stage is already on disk
-    const StopSignals stop_signals;
+    // the record of every finished stage is on disk before the next one
+    // starts; during a fit SIGINT / SIGTERM make it save its checkpoint and
+    // stop (long_run.hpp), elsewhere they end the program as usual
     for (const auto& s : stages) {
       if (s == "environment") {
         result["environment"] = environment_stage(scene, opt->out, *environment);

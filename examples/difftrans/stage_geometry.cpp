@@ -268,6 +268,7 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
     io::Json genus_history = io::Json::array();
     double sum_it = 0.0;
     int counted = 0;
+    const StopSignals stop_signals;  // SIGINT / SIGTERM: save the checkpoint, then stop
     ProgressMeter meter("geometry", cfg.iterations, fc.iteration());
     while (!fc.done()) {
       const dg::Stage1Stats s = fc.step(views);
@@ -334,6 +335,7 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
   } else {
     const auto t1 = clock_type::now();
     progress("geometry: remeshing and " + std::to_string(cfg.refine_iterations) + " large-steps iterations");
+    const StopSignals stop_signals;  // SIGINT / SIGTERM: save the checkpoint, then stop
     ProgressMeter meter("geometry: refine", cfg.refine_iterations);
     const dg::Stage1RefineResult r = dg::stage1_refine(pos, tris, views, cfg, [&](const dg::Stage1RefineStats& s) {
       meter.update(s.iteration + 1, "loss " + fixed(s.loss, 5) + " mask " + fixed(s.mask, 5) + "  " +

@@ -157,27 +157,30 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
   }
   j["resumed_at"] = stage.iteration();
   const auto save = [&] { stage.save(ckpt_path, run_name); };
-  ProgressMeter meter("materials", cfg.iterations, stage.iteration());
-  auto last_save = clock::now();
   const auto t0 = clock::now();
-  while (!stage.done()) {
-    const render::Stage2Stats st = stage.step();
-    meter.update(st.iteration + 1, "colour " + fixed(st.color, 5) + " IoR " + fixed(st.ior, 4) + " mean sigma (" +
-                                       fixed(st.mean_sigma.x, 3) + ", " + fixed(st.mean_sigma.y, 3) + ", " +
-                                       fixed(st.mean_sigma.z, 3) + ")" +
-                                       (st.geometry_moving ? " mask " + fixed(st.mask, 5) : std::string()) + "  " +
-                                       fixed(st.seconds, 3) + " s/it" +
-                                       (st.skipped_rays ? "  skipped " + std::to_string(st.skipped_rays) : std::string()));
-    if (stop_requested() || stage.done() ||
-        (run.checkpoint_every > 0 && stage.iteration() % run.checkpoint_every == 0) ||
-        std::chrono::duration<double>(clock::now() - last_save).count() > 60.0) {
-      save();
-      last_save = clock::now();
+  {  // the fit; outside it a signal ends the program at once (the checkpoint is complete)
+    const StopSignals stop_signals;  // SIGINT / SIGTERM: save the checkpoint, then stop
+    ProgressMeter meter("materials", cfg.iterations, stage.iteration());
+    auto last_save = clock::now();
+    while (!stage.done()) {
+      const render::Stage2Stats st = stage.step();
+      meter.update(st.iteration + 1, "colour " + fixed(st.color, 5) + " IoR " + fixed(st.ior, 4) + " mean sigma (" +
+                                         fixed(st.mean_sigma.x, 3) + ", " + fixed(st.mean_sigma.y, 3) + ", " +
+                                         fixed(st.mean_sigma.z, 3) + ")" +
+                                         (st.geometry_moving ? " mask " + fixed(st.mask, 5) : std::string()) + "  " +
+                                         fixed(st.seconds, 3) + " s/it" +
+                                         (st.skipped_rays ? "  skipped " + std::to_string(st.skipped_rays) : std::string()));
+      if (stop_requested() || stage.done() ||
+          (run.checkpoint_every > 0 && stage.iteration() % run.checkpoint_every == 0) ||
+          std::chrono::duration<double>(clock::now() - last_save).count() > 60.0) {
+        save();
+        last_save = clock::now();
+      }
+      stop_if_requested("materials", "the fit at iteration " + std::to_string(stage.iteration()) + " is saved in " +
+                                         ckpt_path.string());
     }
-    stop_if_requested("materials", "the fit at iteration " + std::to_string(stage.iteration()) + " is saved in " +
-                                       ckpt_path.string());
+    meter.finish();
   }
-  meter.finish();
   std::vector<double> color_curve, ior_curve;
   for (const render::Stage2Stats& st : stage.history()) {
     color_curve.push_back(st.color);
