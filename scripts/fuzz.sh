@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Builds the libFuzzer targets of the input loaders (tests/fuzz/*.fuzz.cpp)
+# Builds the libFuzzer targets of the input loaders (tests/fuzz/*.fuzz.cpp:
+# OBJ, PLY, scene JSON, COLMAP binary)
 # with clang + ASan + UBSan and runs each for a bounded time on a seed corpus.
 # Usage: scripts/fuzz.sh [seconds per target, default 60] [target ...]
 # Crashes are written to build/fuzz/<target>/crash-*; the script exits 1 then.
@@ -17,7 +18,7 @@ fi
 out=build/fuzz
 mkdir -p "$out"
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(mesh_obj mesh_ply scene_json)
+[ ${#targets[@]} -gt 0 ] || targets=(mesh_obj mesh_ply scene_json colmap_binary)
 flags=(-std=c++17 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined
        -Iinclude -I/usr/include/stb -I/usr/include/OpenEXR -I/usr/include/Imath)
 libs=(-ltinyobjloader -lstb -lOpenEXR-3_1 -lImath-3_1)
@@ -34,6 +35,16 @@ seed() {  # seed corpus per target
       { printf 'ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n'
         printf '\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x80\x3f\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x80\x3f\x00\x00\x00\x00'
         printf '\x03\x00\x00\x00\x00\x01\x00\x00\x00\x02\x00\x00\x00'; } > "$dir/tri_binary.ply" ;;
+    colmap_binary)  # first byte: 0 = cameras.bin, 1 = images.bin; then the file (little-endian)
+      python3 - "$dir" <<'PY'
+import struct, sys
+d = sys.argv[1]
+cam = struct.pack('<QIiQQ4d', 1, 1, 1, 8, 8, 10.0, 10.0, 4.0, 4.0)          # one PINHOLE camera
+img = struct.pack('<QI7dI', 1, 1, 1, 0, 0, 0, 0, 0, 3, 1) + b'a.png\0' + struct.pack('<Q2dq', 1, 1.5, 2.5, -1)
+open(d + '/cameras.bin', 'wb').write(b'\0' + cam)
+open(d + '/images.bin', 'wb').write(b'\1' + img)
+PY
+      ;;
     scene_json)
       printf '{"camera_angle_x": 0.69, "w": 8, "h": 8, "frames": [{"file_path": "images/r_0", "mask_path": "masks/r_0.png", "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,3],[0,0,0,1]]}]}' > "$dir/one_frame.json"
       printf '{"fl_x": 10, "fl_y": 10, "cx": 4, "cy": 4, "w": 8, "h": 8, "frames": [{"file_path": "images/r_1.exr", "environment_only": true, "transform_matrix": [[0,0,1,2],[0,1,0,0],[-1,0,0,0]]}]}' > "$dir/intrinsics.json" ;;
