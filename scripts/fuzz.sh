@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets of the input loaders (tests/fuzz/*.fuzz.cpp:
-# OBJ, PLY, scene JSON, COLMAP binary)
+# OBJ, PLY, scene JSON, COLMAP binary, Radiance RGBE)
 # with clang + ASan + UBSan and runs each for a bounded time on a seed corpus.
 # Usage: scripts/fuzz.sh [seconds per target, default 60] [target ...]
 # Crashes are written to build/fuzz/<target>/crash-*; the script exits 1 then.
@@ -18,7 +18,7 @@ fi
 out=build/fuzz
 mkdir -p "$out"
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(mesh_obj mesh_ply scene_json colmap_binary)
+[ ${#targets[@]} -gt 0 ] || targets=(mesh_obj mesh_ply scene_json colmap_binary hdr_rgbe)
 flags=(-std=c++17 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined
        -Iinclude -I/usr/include/stb -I/usr/include/OpenEXR -I/usr/include/Imath)
 libs=(-ltinyobjloader -lstb -lOpenEXR-3_1 -lImath-3_1)
@@ -43,6 +43,17 @@ cam = struct.pack('<QIiQQ4d', 1, 1, 1, 8, 8, 10.0, 10.0, 4.0, 4.0)          # on
 img = struct.pack('<QI7dI', 1, 1, 1, 0, 0, 0, 0, 0, 3, 1) + b'a.png\0' + struct.pack('<Q2dq', 1, 1.5, 2.5, -1)
 open(d + '/cameras.bin', 'wb').write(b'\0' + cam)
 open(d + '/images.bin', 'wb').write(b'\1' + img)
+PY
+      ;;
+    hdr_rgbe)  # a run-length encoded map (width 16) and an uncompressed one (width 4), and a cut of the first
+      python3 - "$dir" <<'PY'
+import struct, sys
+d = sys.argv[1]
+head = lambda w, h: b'#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y %d +X %d\n' % (h, w)
+rle_line = bytes([2, 2, 0, 16]) + b''.join(bytes([128 + 16, v]) for v in (120, 60, 30, 129))
+open(d + '/rle.hdr', 'wb').write(head(16, 2) + rle_line * 2)
+open(d + '/flat.hdr', 'wb').write(head(4, 2) + bytes([100, 50, 25, 128]) * 8)
+open(d + '/cut.hdr', 'wb').write(head(16, 2) + rle_line + rle_line[:7])
 PY
       ;;
     scene_json)
