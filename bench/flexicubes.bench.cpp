@@ -32,7 +32,7 @@ struct Input {
   dg::FlexiCubesInputs inputs(bool differentiable) const {
     const std::vector<float>* v[5] = {&sdf, &deform, &alpha, &beta, &gamma};
     dg::FlexiCubesInputs in;
-    difftrans::scene::ParamSource* s[5] = {&in.sdf, &in.deform, &in.alpha, &in.beta, &in.gamma};
+    difftrans::ad::ParamSource* s[5] = {&in.sdf, &in.deform, &in.alpha, &in.beta, &in.gamma};
     for (int b = 0; b < 5; ++b) *s[b] = {v[b]->data(), std::int32_t(v[b]->size()), differentiable ? b : -1};
     return in;
   }

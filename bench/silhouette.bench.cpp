@@ -10,18 +10,22 @@
 #include <string>
 
 #include "../tests/support/shapes.hpp"
+#include "difftrans/losses/mask.hpp"
+#include "difftrans/losses/screen_smoothness.hpp"
 #include "difftrans/render/silhouette.hpp"
 #include "support/ratio_reporter.hpp"
 
 namespace dr = difftrans::render;
 namespace ds = difftrans::scene;
+namespace geometry = difftrans::geometry;
+namespace losses = difftrans::losses;
 using difftrans::Vec3f;
 
 namespace {
 
 struct Subject {
   ds::TriangleMesh mesh;
-  dr::TriangleNeighbors neighbors;
+  geometry::TriangleNeighbors neighbors;
   std::vector<ds::Camera> cameras;
   std::vector<std::vector<float>> targets;  // a target mask per view: the mesh scaled by 1.05
 };
@@ -41,7 +45,7 @@ const Subject& subject(const std::string& name) {
   const std::vector<float>& pos = shape.positions;
   const std::vector<std::int32_t>& tris = shape.triangles;
   s->mesh = ds::TriangleMesh(pos, tris);
-  s->neighbors = dr::TriangleNeighbors::build(s->mesh);
+  s->neighbors = geometry::TriangleNeighbors::build(s->mesh);
   std::vector<float> bigger = pos;
   for (float& x : bigger) x *= 1.05f;
   const ds::TriangleMesh target(bigger, tris);
@@ -95,7 +99,7 @@ void gradient(benchmark::State& state, const std::string& name) {
     std::fill(grad.begin(), grad.end(), 0.0f);
     const dr::SilhouetteFrame f = dr::prepare_silhouette(s.mesh, s.neighbors, s.cameras[i]);
     const std::vector<float> m = dr::antialiased_mask(f, s.mesh, s.cameras[i]);
-    dr::mask_l1(m, s.targets[i].data(), adjoint.data());
+    losses::mask_l1(m, s.targets[i].data(), adjoint.data());
     dr::silhouette_backward(f, s.mesh, s.cameras[i], adjoint.data(), grad.data());
     benchmark::DoNotOptimize(grad.data());
     crossings += double(f.crossings.size());
@@ -110,7 +114,7 @@ void smoothness(benchmark::State& state, const std::string& name) {
   std::size_t i = 0;
   for (auto _ : state) {
     std::fill(grad.begin(), grad.end(), 0.0f);
-    benchmark::DoNotOptimize(dr::smoothness_gradient(s.mesh, s.cameras[i], grad.data()));
+    benchmark::DoNotOptimize(losses::smoothness_gradient(s.mesh, s.cameras[i], grad.data()));
     i = (i + 1) % s.cameras.size();
   }
   counters(state, s, 0.0);
@@ -118,7 +122,7 @@ void smoothness(benchmark::State& state, const std::string& name) {
 
 void neighbors(benchmark::State& state, const std::string& name) {
   const Subject& s = subject(name);
-  for (auto _ : state) benchmark::DoNotOptimize(dr::TriangleNeighbors::build(s.mesh).across.data());
+  for (auto _ : state) benchmark::DoNotOptimize(geometry::TriangleNeighbors::build(s.mesh).across.data());
   counters(state, s, 0.0);
 }
 

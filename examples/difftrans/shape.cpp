@@ -3,7 +3,7 @@
 #include "command.hpp"
 
 #include "difftrans/geometry/procedural.hpp"
-#include "difftrans/geometry/stage1.hpp"
+#include "difftrans/geometry/topology.hpp"
 #include "difftrans/io/mesh_file.hpp"
 
 namespace difftrans::cli {

@@ -16,7 +16,7 @@
 #include <sstream>
 #include <sys/resource.h>
 
-#include "difftrans/geometry/stage1.hpp"
+#include "pipeline/geometry.hpp"
 #include "difftrans/io/contact_sheet.hpp"
 #include "difftrans/io/mesh_file.hpp"
 #include "difftrans/io/png.hpp"
@@ -41,11 +41,11 @@ void from_io_mesh(const io::Mesh& m, std::vector<float>& pos, std::vector<std::i
 
 // Rows: target mask | rendered silhouette of the mesh | difference (red: mask
 // not covered, blue: covered outside the mask).
-void write_silhouette_strip(const std::filesystem::path& path, const std::vector<dg::Stage1View>& views,
+void write_silhouette_strip(const std::filesystem::path& path, const std::vector<pipeline::Stage1View>& views,
                             const std::vector<float>& pos, const std::vector<std::int32_t>& tris, int count) {
   if (views.empty() || tris.empty()) return;
   const scene::TriangleMesh m(pos, tris);
-  const render::TriangleNeighbors nb = render::TriangleNeighbors::build(m);
+  const geometry::TriangleNeighbors nb = geometry::TriangleNeighbors::build(m);
   const auto picked = io::spread_indices(int(views.size()), count);
   io::SheetLayout layout;
   layout.tile_width = views.front().camera.width;
@@ -54,7 +54,7 @@ void write_silhouette_strip(const std::filesystem::path& path, const std::vector
   layout.cols = 3;
   std::vector<std::vector<io::Image8>> tiles;
   for (int i : picked) {
-    const dg::Stage1View& v = views[std::size_t(i)];
+    const pipeline::Stage1View& v = views[std::size_t(i)];
     if (v.camera.width != layout.tile_width || v.camera.height != layout.tile_height) continue;
     const std::vector<float> s = render::silhouette_mask<float>(m, v.camera, &nb);
     const std::size_t n = s.size();
@@ -123,13 +123,13 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
   const auto t_start = clock_type::now();
   namespace fs = std::filesystem;
   // training views with masks
-  std::vector<dg::Stage1View> views;
+  std::vector<pipeline::Stage1View> views;
   for (const io::Frame& f : scene.train.frames) {
     if (f.mask.width == 0) {
       warn("geometry: frame " + f.name + " has no mask; it is not used");
       continue;
     }
-    dg::Stage1View v;
+    pipeline::Stage1View v;
     v.camera = render::camera_of(f);
     if (f.mask.width != v.camera.width || f.mask.height != v.camera.height)
       throw std::runtime_error("geometry: the mask of frame " + f.name + " does not match its camera's size");
@@ -139,7 +139,7 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
   }
   if (views.empty()) throw std::runtime_error("geometry: no training frame has a mask");
 
-  dg::Stage1Config cfg;
+  pipeline::Stage1Config cfg;
   cfg.grid_resolution = opt.grid;
   cfg.iterations = opt.iterations;
   cfg.views_per_iteration = opt.views_per_iteration;
@@ -196,11 +196,11 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
     cfg.developability_start = v[2];
   }
   if (opt.smoothness == "screen") {
-    cfg.smoothness = dg::Stage1Smoothness::screen_space;
+    cfg.smoothness = pipeline::Stage1Smoothness::screen_space;
   } else if (opt.smoothness == "edge") {
-    cfg.smoothness = dg::Stage1Smoothness::edge_normal;
+    cfg.smoothness = pipeline::Stage1Smoothness::edge_normal;
   } else if (opt.smoothness == "none") {
-    cfg.smoothness = dg::Stage1Smoothness::none;
+    cfg.smoothness = pipeline::Stage1Smoothness::none;
   } else {
     throw std::runtime_error("--smoothness: '" + opt.smoothness + "' is not one of screen, edge, none");
   }
@@ -216,7 +216,7 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
     cfg.box_lo = c - Vec3f(half);
     cfg.box_hi = c + Vec3f(half);
   } else {
-    dg::stage1_unit_box(cfg, opt.margin);
+    pipeline::stage1_unit_box(cfg, opt.margin);
   }
 
   const fs::path raw_path = out / "mesh_stage1_raw.obj", final_path = out / "mesh_stage1.obj",
@@ -248,7 +248,7 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
     j["raw_reused"] = true;
   } else {
     const auto t0 = clock_type::now();
-    dg::Stage1FlexiCubes fc(cfg);
+    pipeline::Stage1FlexiCubes fc(cfg);
     bool resumed = false;
     if (!run.restart && fs::exists(ckpt_path)) {
       resumed = fc.load(ckpt_path);
@@ -271,7 +271,7 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
     const StopSignals stop_signals;  // SIGINT / SIGTERM: save the checkpoint, then stop
     ProgressMeter meter("geometry", cfg.iterations, fc.iteration());
     while (!fc.done()) {
-      const dg::Stage1Stats s = fc.step(views);
+      const pipeline::Stage1Stats s = fc.step(views);
       sum_it += s.seconds;
       ++counted;
       const bool last = fc.done();
@@ -320,7 +320,7 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
     progress("geometry: wrote " + raw_path.string() + " (" + fixed(fc_seconds, 1) + " s)");
   }
   j["raw"] = geometry_record(raw_pos, raw_tris);
-  j["raw"]["mask_l1_train"] = dg::stage1_mask_error(raw_pos, raw_tris, views);
+  j["raw"]["mask_l1_train"] = pipeline::stage1_mask_error(raw_pos, raw_tris, views);
 
   // ---- remeshing and large-steps refinement
   std::vector<float> pos = raw_pos;
@@ -337,7 +337,7 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
     progress("geometry: remeshing and " + std::to_string(cfg.refine_iterations) + " large-steps iterations");
     const StopSignals stop_signals;  // SIGINT / SIGTERM: save the checkpoint, then stop
     ProgressMeter meter("geometry: refine", cfg.refine_iterations);
-    const dg::Stage1RefineResult r = dg::stage1_refine(pos, tris, views, cfg, [&](const dg::Stage1RefineStats& s) {
+    const pipeline::Stage1RefineResult r = pipeline::stage1_refine(pos, tris, views, cfg, [&](const pipeline::Stage1RefineStats& s) {
       meter.update(s.iteration + 1, "loss " + fixed(s.loss, 5) + " mask " + fixed(s.mask, 5) + "  " +
                                         fixed(s.seconds, 3) + " s/it");
       // the refinement is short and keeps no checkpoint: the FlexiCubes mesh is what is saved
@@ -358,7 +358,7 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
     progress("geometry: wrote " + final_path.string());
   }
   j["final"] = geometry_record(pos, tris);
-  j["final"]["mask_l1_train"] = dg::stage1_mask_error(pos, tris, views);
+  j["final"]["mask_l1_train"] = pipeline::stage1_mask_error(pos, tris, views);
 
   // ---- pictures
   write_silhouette_strip(out / "stage1_silhouettes.png", views, pos, tris, opt.sheet_views);

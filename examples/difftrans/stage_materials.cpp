@@ -20,7 +20,7 @@
 #include "difftrans/metrics/chamfer.hpp"
 #include "difftrans/metrics/ior.hpp"
 #include "difftrans/render/background.hpp"
-#include "difftrans/render/stage2.hpp"
+#include "pipeline/materials.hpp"
 
 namespace difftrans::cli {
 
@@ -80,15 +80,15 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
   }
 
   // training views: images and masks
-  std::vector<render::Stage2View> views;
-  std::vector<geometry::Stage1View> mask_views;
+  std::vector<pipeline::Stage2View> views;
+  std::vector<pipeline::Stage1View> mask_views;
   for (const io::Frame& f : scene.train.frames) {
     if (f.environment_only) continue;
     if (f.mask.width == 0) {
       warn("materials: frame " + f.name + " has no mask; it is not used");
       continue;
     }
-    render::Stage2View v;
+    pipeline::Stage2View v;
     v.camera = render::camera_of(f);
     if (f.image.width != v.camera.width || f.image.height != v.camera.height || f.mask.width != v.camera.width ||
         f.mask.height != v.camera.height)
@@ -96,7 +96,7 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
     v.image = f.image.rgb.data();
     v.mask = f.mask.inside.data();
     views.push_back(v);
-    geometry::Stage1View m;
+    pipeline::Stage1View m;
     m.camera = v.camera;
     m.target.resize(f.mask.inside.size());
     for (std::size_t p = 0; p < m.target.size(); ++p) m.target[p] = f.mask.inside[p] ? 1.0f : 0.0f;
@@ -104,7 +104,7 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
   }
   if (views.empty()) throw std::runtime_error("materials: no training frame has an image and a mask");
 
-  render::Stage2Config cfg;
+  pipeline::Stage2Config cfg;
   cfg.iterations = opt.iterations;
   cfg.rays_per_iteration = opt.rays;
   cfg.freeze_geometry = opt.freeze;
@@ -141,7 +141,7 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
            " views, " + std::to_string(cfg.rays_per_iteration) + " rays each, IoR from " + fixed(cfg.ior_init, 3) +
            ", absorption grid " + std::to_string(cfg.absorption_res.x) + "^3" +
            (cfg.optimize_positions ? ", vertices after " + std::to_string(cfg.freeze_geometry) : std::string()));
-  render::Stage2 stage(s, views, mask_views, cfg);
+  pipeline::Stage2 stage(s, views, mask_views, cfg);
   // checkpoints: the settings above, the seed and the inputs name the run
   const fs::path ckpt_path = out / "checkpoint_stage2.bin";
   // (not the iteration count: a finished or stopped fit can be continued for more iterations)
@@ -163,7 +163,7 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
     ProgressMeter meter("materials", cfg.iterations, stage.iteration());
     auto last_save = clock::now();
     while (!stage.done()) {
-      const render::Stage2Stats st = stage.step();
+      const pipeline::Stage2Stats st = stage.step();
       meter.update(st.iteration + 1, "colour " + fixed(st.color, 5) + " IoR " + fixed(st.ior, 4) + " mean sigma (" +
                                          fixed(st.mean_sigma.x, 3) + ", " + fixed(st.mean_sigma.y, 3) + ", " +
                                          fixed(st.mean_sigma.z, 3) + ")" +
@@ -182,7 +182,7 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
     meter.finish();
   }
   std::vector<double> color_curve, ior_curve;
-  for (const render::Stage2Stats& st : stage.history()) {
+  for (const pipeline::Stage2Stats& st : stage.history()) {
     color_curve.push_back(st.color);
     ior_curve.push_back(st.ior);
   }

@@ -7,7 +7,7 @@
 #include <map>
 #include <utility>
 
-#include "difftrans/geometry/stage1.hpp"
+#include "difftrans/geometry/topology.hpp"
 
 namespace dg = difftrans::geometry;
 

@@ -8,11 +8,15 @@
 
 #include <random>
 
+#include "difftrans/losses/mask.hpp"
+#include "difftrans/losses/screen_smoothness.hpp"
 #include "difftrans/render/silhouette.hpp"
 
 using namespace dt_test;
 namespace dr = difftrans::render;
 namespace ds = difftrans::scene;
+namespace geometry = difftrans::geometry;
+namespace losses = difftrans::losses;
 
 namespace {
 
@@ -124,7 +128,7 @@ double dot(const std::vector<float>& a, const std::vector<float>& b) {
 // ------------------------------------------------------------------ topology
 
 TEST_CASE("triangle neighbours: closed, open and non-manifold edges") {
-  const auto box = dr::TriangleNeighbors::build(to_mesh(make_box(0.5f, 0.5f, 0.5f)));
+  const auto box = geometry::TriangleNeighbors::build(to_mesh(make_box(0.5f, 0.5f, 0.5f)));
   for (std::size_t i = 0; i < box.across.size(); ++i) {
     REQUIRE(box.across[i] >= 0);
     // symmetric: the neighbour names this triangle back across the same edge
@@ -134,18 +138,18 @@ TEST_CASE("triangle neighbours: closed, open and non-manifold edges") {
     CHECK(back == 1);
   }
   const float sq[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
-  const auto open = dr::TriangleNeighbors::build(to_mesh(quad(sq, 0.0f)));
+  const auto open = geometry::TriangleNeighbors::build(to_mesh(quad(sq, 0.0f)));
   int boundary = 0;
-  for (auto a : open.across) boundary += a == dr::TriangleNeighbors::boundary;
+  for (auto a : open.across) boundary += a == geometry::TriangleNeighbors::boundary;
   CHECK(boundary == 4);
   Shape fan;
   fan.positions = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 1};
   fan.triangles = {0, 1, 2, 1, 0, 3, 0, 1, 4};  // three faces on edge 0-1
-  const auto nm = dr::TriangleNeighbors::build(fan.triangles.data(), 3);
-  CHECK(nm.across[0] == dr::TriangleNeighbors::non_manifold);
-  CHECK(nm.across[3] == dr::TriangleNeighbors::non_manifold);
-  CHECK(nm.across[6] == dr::TriangleNeighbors::non_manifold);
-  CHECK(nm.across[1] == dr::TriangleNeighbors::boundary);
+  const auto nm = geometry::TriangleNeighbors::build(fan.triangles.data(), 3);
+  CHECK(nm.across[0] == geometry::TriangleNeighbors::non_manifold);
+  CHECK(nm.across[3] == geometry::TriangleNeighbors::non_manifold);
+  CHECK(nm.across[6] == geometry::TriangleNeighbors::non_manifold);
+  CHECK(nm.across[1] == geometry::TriangleNeighbors::boundary);
 }
 
 // ------------------------------------------------------------------ rasterizer
@@ -427,7 +431,7 @@ TEST_CASE("gradient of the total coverage of a triangle approaches its projected
 TEST_CASE("silhouette_gradient matches central differences of the AA mask (double)") {
   const ds::Camera cam = front_camera(64, 56);
   const ds::TriangleMesh m = to_mesh(rotated(make_icosphere(0.6f, 2), 0.5f, 0.2f));
-  const dr::TriangleNeighbors nb = dr::TriangleNeighbors::build(m);
+  const geometry::TriangleNeighbors nb = geometry::TriangleNeighbors::build(m);
   const std::vector<float> w = smooth_weights(cam.width, cam.height);
   std::vector<float> grad(m.positions.size(), 0.0f);
   dr::SilhouetteStats st;
@@ -556,7 +560,7 @@ TEST_CASE("triangles crossing the image border") {
   s.positions = {-2.0f, -0.3f, 0.0f, 0.35f, -0.45f, 0.05f, 0.1f, 1.9f, -0.1f};
   s.triangles = {0, 1, 2};
   const ds::TriangleMesh m = to_mesh(s);
-  const dr::SilhouetteFrame f = dr::prepare_silhouette(m, dr::TriangleNeighbors::build(m), cam);
+  const dr::SilhouetteFrame f = dr::prepare_silhouette(m, geometry::TriangleNeighbors::build(m), cam);
   for (const auto& c : f.crossings) {
     REQUIRE(c.covered >= 0);
     REQUIRE(c.covered < cam.width * cam.height);
@@ -626,7 +630,7 @@ TEST_CASE("mask_l1: value and subgradient") {
   const std::vector<float> mask = {0.2f, 1.0f, 0.5f, 0.0f};
   const float target[4] = {0.0f, 1.0f, 1.0f, 0.25f};
   float adj[4];
-  const double l = dr::mask_l1(mask, target, adj);
+  const double l = losses::mask_l1(mask, target, adj);
   CHECK(l == doctest::Approx((0.2 + 0.0 + 0.5 + 0.25) / 4.0));
   CHECK(adj[0] == 0.25f);
   CHECK(adj[1] == 0.0f);
@@ -640,7 +644,7 @@ TEST_CASE("mask L1 gradient step moves the silhouette toward the target") {
   const ds::TriangleMesh start = to_mesh(make_icosphere(0.5f, 3));
   const std::vector<float> tmask = dr::silhouette_mask(target, cam);
   std::vector<float> adj(tmask.size());
-  const double l0 = dr::mask_l1(dr::silhouette_mask(start, cam), tmask.data(), adj.data());
+  const double l0 = losses::mask_l1(dr::silhouette_mask(start, cam), tmask.data(), adj.data());
   std::vector<float> grad(start.positions.size(), 0.0f);
   dr::silhouette_gradient(start, cam, adj.data(), grad.data());
   // the gradient points inward (growing lowers the loss): it is anti-parallel to the positions
@@ -649,7 +653,7 @@ TEST_CASE("mask L1 gradient step moves the silhouette toward the target") {
   for (float g : grad) gn += double(g) * g;
   std::vector<float> step(grad.size());
   for (std::size_t i = 0; i < grad.size(); ++i) step[i] = float(-grad[i] / std::sqrt(gn));
-  const double l1 = dr::mask_l1(dr::silhouette_mask(moved(start, step, 0.05), cam), tmask.data());
+  const double l1 = losses::mask_l1(dr::silhouette_mask(moved(start, step, 0.05), cam), tmask.data());
   CHECK(l1 < l0);
 }
 
@@ -660,7 +664,7 @@ TEST_CASE("depth and normal maps of planes and a sphere") {
   const float sq[4][2] = {{-0.6f, -0.6f}, {0.6f, -0.6f}, {0.6f, 0.6f}, {-0.6f, 0.6f}};
   {
     const ds::TriangleMesh m = to_mesh(quad(sq, 0.25f));
-    const dr::GeometryMaps g = dr::geometry_maps(m, cam, dr::rasterize(m, cam));
+    const losses::GeometryMaps g = losses::geometry_maps(m, cam, dr::rasterize(m, cam));
     int valid = 0;
     for (std::size_t p = 0; p < g.valid.size(); ++p) {
       if (!g.valid[p]) continue;
@@ -669,7 +673,7 @@ TEST_CASE("depth and normal maps of planes and a sphere") {
       CHECK(g.normal[3 * p + 2] == doctest::Approx(1.0f));
     }
     CHECK(valid > 100);
-    CHECK(dr::smoothness_loss(g) == doctest::Approx(0.0).epsilon(1e-6));
+    CHECK(losses::smoothness_loss(g) == doctest::Approx(0.0).epsilon(1e-6));
   }
   {
     // tilted plane z = 0.3 x: depth along the pixel ray, closed form
@@ -677,7 +681,7 @@ TEST_CASE("depth and normal maps of planes and a sphere") {
     for (std::size_t i = 0; i < s.positions.size(); i += 3) s.positions[i + 2] = 0.3f * s.positions[i];
     const ds::TriangleMesh m = to_mesh(s);
     const dr::Raster r = dr::rasterize(m, cam);
-    const dr::GeometryMaps g = dr::geometry_maps(m, cam, r);
+    const losses::GeometryMaps g = losses::geometry_maps(m, cam, r);
     for (std::size_t p = 0; p < g.valid.size(); ++p) {
       if (!g.valid[p]) continue;
       const double dx = (double(p % 32) + 0.5 - cam.cx) / cam.fx;  // camera ray (dx, dy, -1), eye at z = 3
@@ -689,7 +693,7 @@ TEST_CASE("depth and normal maps of planes and a sphere") {
   {
     const ds::TriangleMesh m = to_mesh(make_icosphere(0.7f, 3));
     const dr::Raster r = dr::rasterize(m, cam);
-    const dr::GeometryMaps g = dr::geometry_maps(m, cam, r);
+    const losses::GeometryMaps g = losses::geometry_maps(m, cam, r);
     double worst = 0.0;
     for (std::size_t p = 0; p < g.valid.size(); ++p) {
       if (!g.valid[p]) continue;
@@ -699,7 +703,7 @@ TEST_CASE("depth and normal maps of planes and a sphere") {
       worst = std::max(worst, double(glm::length(n - glm::normalize(x))));
     }
     CHECK(worst < 0.03);
-    CHECK(dr::smoothness_loss(g) > 0.0);
+    CHECK(losses::smoothness_loss(g) > 0.0);
   }
 }
 
@@ -715,7 +719,7 @@ TEST_CASE("geometry_backward matches central differences of the maps (raster hel
     double s = 0.0;
     for (std::size_t p = 0; p < r.triangle.size(); ++p) {
       if (r.triangle[p] < 0) continue;
-      const auto g = dr::pixel_geometry<double>(reader, mm.view(), cam, r.triangle[p], int(p % 40), int(p / 40), face,
+      const auto g = losses::pixel_geometry<double>(reader, mm.view(), cam, r.triangle[p], int(p % 40), int(p / 40), face,
                                                 ds::NormalMode::one_ring);
       if (!g.valid) continue;
       s += double(wd[p]) * g.depth;
@@ -725,10 +729,10 @@ TEST_CASE("geometry_backward matches central differences of the maps (raster hel
   };
   for (bool face : {false, true}) {
     CAPTURE(face);
-    dr::SmoothnessOptions opt;
+    losses::SmoothnessOptions opt;
     opt.face_normals = face;
     std::vector<float> grad(m.positions.size(), 0.0f);
-    dr::geometry_backward(m, cam, r, wd.data(), wn.data(), grad.data(), opt);
+    losses::geometry_backward(m, cam, r, wd.data(), wn.data(), grad.data(), opt);
     for (unsigned seed : {31u, 32u, 33u}) {
       const std::vector<float> dir = random_direction(m.positions.size(), seed);
       const double h = 1e-4;
@@ -742,12 +746,12 @@ TEST_CASE("geometry_backward matches central differences of the maps (raster hel
 TEST_CASE("smoothness_loss adjoints match central differences in the map values") {
   const ds::Camera cam = front_camera(24, 24);
   const ds::TriangleMesh m = to_mesh(rotated(make_icosphere(0.7f, 2), 0.3f, 0.6f));
-  dr::GeometryMaps g = dr::geometry_maps(m, cam, dr::rasterize(m, cam));
-  dr::SmoothnessOptions opt;
+  losses::GeometryMaps g = losses::geometry_maps(m, cam, dr::rasterize(m, cam));
+  losses::SmoothnessOptions opt;
   opt.depth_weight = 0.7f;
   opt.laplacian_weight = 1.3f;
   std::vector<float> ad_d(g.depth.size()), ad_n(g.normal.size());
-  const double l0 = dr::smoothness_loss(g, opt, ad_d.data(), ad_n.data());
+  const double l0 = losses::smoothness_loss(g, opt, ad_d.data(), ad_n.data());
   CHECK(l0 > 0.0);
   int checked = 0;
   for (std::size_t p = 0; p < g.valid.size(); p += 7) {
@@ -756,10 +760,10 @@ TEST_CASE("smoothness_loss adjoints match central differences in the map values"
       float& v = c < 0 ? g.depth[p] : g.normal[3 * p + std::size_t(c)];
       const float v0 = v, h = 1e-4f;  // each term is piecewise linear in v: exact unless a kink lies within h
       v = v0 + h;
-      const double lp = dr::smoothness_loss(g, opt);
+      const double lp = losses::smoothness_loss(g, opt);
       const double up = double(v) - double(v0);
       v = v0 - h;
-      const double lm = dr::smoothness_loss(g, opt);
+      const double lm = losses::smoothness_loss(g, opt);
       const double down = double(v0) - double(v);
       v = v0;
       const double fp = (lp - l0) / up, fm = (l0 - lm) / down;
@@ -775,20 +779,20 @@ TEST_CASE("smoothness_loss adjoints match central differences in the map values"
 TEST_CASE("smoothness gradient is the maps' backward of the loss adjoints") {
   const ds::Camera cam = front_camera(40, 40);
   const ds::TriangleMesh m = to_mesh(rotated(make_icosphere(0.6f, 2), 0.3f, 0.6f));
-  dr::SmoothnessOptions opt;
+  losses::SmoothnessOptions opt;
   opt.depth_weight = 0.5f;
   opt.laplacian_weight = 0.0f;  // |∇²n| sits near its kinks everywhere on a sphere: not for central differences
   std::vector<float> grad(m.positions.size(), 0.0f);
-  dr::GeometryMaps maps;
-  const double loss = dr::smoothness_gradient(m, cam, grad.data(), opt, {}, &maps);
+  losses::GeometryMaps maps;
+  const double loss = losses::smoothness_gradient(m, cam, grad.data(), opt, {}, &maps);
   const dr::Raster r = dr::rasterize(m, cam);
-  CHECK(loss == doctest::Approx(dr::smoothness_loss(dr::geometry_maps(m, cam, r, opt), opt)));
-  CHECK(loss == doctest::Approx(dr::smoothness_loss(maps, opt)));
+  CHECK(loss == doctest::Approx(losses::smoothness_loss(losses::geometry_maps(m, cam, r, opt), opt)));
+  CHECK(loss == doctest::Approx(losses::smoothness_loss(maps, opt)));
   for (unsigned seed : {11u, 12u, 13u}) {
     const std::vector<float> dir = random_direction(m.positions.size(), seed);
     const double h = 1e-4;
-    const double lp = dr::smoothness_loss(dr::geometry_maps(moved(m, dir, h), cam, r, opt), opt);
-    const double lm = dr::smoothness_loss(dr::geometry_maps(moved(m, dir, -h), cam, r, opt), opt);
+    const double lp = losses::smoothness_loss(losses::geometry_maps(moved(m, dir, h), cam, r, opt), opt);
+    const double lm = losses::smoothness_loss(losses::geometry_maps(moved(m, dir, -h), cam, r, opt), opt);
     const double fd = (lp - lm) / (2 * h), ad = dot(grad, dir);
     CAPTURE(seed);
     CHECK(ad == doctest::Approx(fd).epsilon(0.03));

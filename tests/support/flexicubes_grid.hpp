@@ -42,7 +42,7 @@ struct GridData {
   // buffer ids 0..4 when differentiable (and not empty), else constants
   FlexiCubesInputs inputs(bool differentiable = false) const {
     auto src = [&](const std::vector<float>& v, int id) {
-      return difftrans::scene::ParamSource{v.empty() ? nullptr : v.data(), std::int32_t(v.size()),
+      return difftrans::ad::ParamSource{v.empty() ? nullptr : v.data(), std::int32_t(v.size()),
                                 differentiable && !v.empty() ? id : -1};
     };
     return FlexiCubesInputs{src(sdf, 0), src(deform, 1), src(alpha, 2), src(beta, 3), src(gamma, 4)};

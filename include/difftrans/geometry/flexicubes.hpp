@@ -9,7 +9,7 @@
 #include "difftrans/ad/glm.hpp"
 #include "difftrans/ad/params.hpp"
 #include "difftrans/geometry/flexicubes_tables.hpp"
-#include "difftrans/scene/param_source.hpp"
+#include "difftrans/ad/param_source.hpp"
 
 namespace difftrans::geometry {
 
@@ -82,14 +82,14 @@ struct FlexiCubesGrid {
   }
 };
 
-// The unknowns, each a flat float array (scene::ParamSource: differentiable
+// The unknowns, each a flat float array (ad::ParamSource: differentiable
 // through the reader when its buffer is >= 0, else constants). Layouts:
 // sdf[v], deform[3 v + axis], alpha[8 c + corner], beta[12 c + edge],
 // gamma[c], v a vertex index and c a cube index. A source without values is
 // read as raw 0 everywhere: no deformation, α = β = 1, γ = 0.505. The sdf
 // values are required: every discrete decision is taken on them.
 struct FlexiCubesInputs {
-  scene::ParamSource sdf, deform, alpha, beta, gamma;
+  ad::ParamSource sdf, deform, alpha, beta, gamma;
 };
 
 // The extracted mesh.
@@ -144,7 +144,7 @@ namespace detail {
 
 // raw 0 when a source has no values.
 template <class S, class Reader>
-S fc_read(Reader& reader, const scene::ParamSource& src, std::int32_t index) {
+S fc_read(Reader& reader, const ad::ParamSource& src, std::int32_t index) {
   if (src.buffer >= 0) return S(reader.read(src.buffer, index));
   if (!src.values) return S(0);
   return S(src.values[index]);
@@ -369,7 +369,7 @@ FlexiCubesMesh<S> flexicubes_extract(const FlexiCubesGrid& grid, const FlexiCube
 template <class S>
 FlexiCubesMesh<S> flexicubes_extract(const FlexiCubesGrid& grid, FlexiCubesInputs in,
                                      const FlexiCubesOptions& options = {}) {
-  for (scene::ParamSource* p : {&in.sdf, &in.deform, &in.alpha, &in.beta, &in.gamma}) p->buffer = -1;
+  for (ad::ParamSource* p : {&in.sdf, &in.deform, &in.alpha, &in.beta, &in.gamma}) p->buffer = -1;
   detail::FcConstantReader reader;
   return flexicubes_extract<S>(grid, in, reader, options);
 }

@@ -111,7 +111,7 @@ class HostScene {
     SceneView v;
     const bool normals_ad = reverse && two_level_normals && buffer(param_positions) >= 0;
     v.mesh = mesh.view(buffer(param_positions), normals_ad ? int(param_normals) : -1);
-    v.ior = scene::ParamSource{&ior, 1, buffer(param_ior)};
+    v.ior = ad::ParamSource{&ior, 1, buffer(param_ior)};
     switch (absorption_kind) {
       case scene::AbsorptionKind::none: v.absorption = scene::no_absorption(); break;
       case scene::AbsorptionKind::homogeneous:

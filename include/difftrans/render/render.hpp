@@ -4,6 +4,7 @@
 
 #include "difftrans/render/host_scene.hpp"
 #include "difftrans/render/passes.hpp"
+#include "difftrans/render/raster.hpp"
 #include "difftrans/render/silhouette.hpp"
 #include "difftrans/render/tracer.hpp"
 #include "difftrans/render/views.hpp"

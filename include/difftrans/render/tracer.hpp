@@ -29,7 +29,7 @@ struct SceneView {
   scene::MeshView mesh;        // closed, outward-facing (counter-clockwise) triangles
   scene::EnvMap environment;   // distant environment
   scene::AbsorptionField absorption;
-  scene::ParamSource ior;      // one value: IoR of the object (the outside is 1)
+  ad::ParamSource ior;      // one value: IoR of the object (the outside is 1)
 };
 
 struct TraceSettings {
@@ -138,7 +138,7 @@ DT_HOST_DEVICE Vec3<S> trace(const SceneView& scene, const Accel& accel, Reader&
   using T = ad::scalar_t<S>;
   TraceStats local;
   const int max_depth = settings.max_depth < max_trace_depth ? settings.max_depth : max_trace_depth;
-  const S eta = scene::load<S>(reader, scene.ior, 0);
+  const S eta = ad::load<S>(reader, scene.ior, 0);
   const bool absorbing = scene.absorption.kind != scene::AbsorptionKind::none;
 
   Vec3<S> radiance(S(0), S(0), S(0));

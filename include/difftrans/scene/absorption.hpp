@@ -6,9 +6,17 @@
 #include <cstdint>
 
 #include "difftrans/ad/glm.hpp"
-#include "difftrans/scene/param_source.hpp"
+#include "difftrans/ad/param_source.hpp"
 
 namespace difftrans::scene {
+
+// the parameter sources and value helpers of ad/, used unqualified below
+using ad::all_finite;
+using ad::detach;
+using ad::load;
+using ad::load3;
+using ad::ParamSource;
+using ad::value_of;
 
 // Parameterization: the field stores raw parameters p (any real), and the
 // absorption coefficient is sigma = softplus(p) >= 0, applied in S where p is

@@ -6,9 +6,17 @@
 
 #include "difftrans/ad/glm.hpp"
 #include "difftrans/core/constants.hpp"
-#include "difftrans/scene/param_source.hpp"
+#include "difftrans/ad/param_source.hpp"
 
 namespace difftrans::scene {
+
+// the parameter sources and value helpers of ad/, used unqualified below
+using ad::all_finite;
+using ad::detach;
+using ad::load;
+using ad::load3;
+using ad::ParamSource;
+using ad::value_of;
 
 // Convention (docs/conventions.md), +Y up: direction d = (x, y, z) maps to
 //   u = 0.5 + atan2(x, -z) / (2 pi)   in [0, 1], to the right,

@@ -10,9 +10,18 @@
 #include "difftrans/ad/glm.hpp"
 #include "difftrans/ad/params.hpp"
 #include "difftrans/core/parallel.hpp"
-#include "difftrans/scene/param_source.hpp"
+#include "difftrans/geometry/topology.hpp"
+#include "difftrans/ad/param_source.hpp"
 
 namespace difftrans::scene {
+
+// the parameter sources and value helpers of ad/, used unqualified below
+using ad::all_finite;
+using ad::detach;
+using ad::load;
+using ad::load3;
+using ad::ParamSource;
+using ad::value_of;
 
 // Vertex normal (the paper): the mean of the unit normals of the faces around
 // the vertex, normalized. Faces are counter-clockwise seen from the side the
@@ -290,33 +299,12 @@ class TriangleMesh {
   std::int32_t num_vertices() const { return std::int32_t(positions.size() / 3); }
   std::int32_t num_triangles() const { return std::int32_t(triangles.size() / 3); }
 
-  // CSR vertex -> faces (faces in increasing order around each vertex).
+  // CSR vertex -> faces (geometry::vertex_faces: increasing face order, a
+  // collapsed face listed once per vertex).
   void build_adjacency() {
-    const std::int32_t nv = num_vertices(), nt = num_triangles();
-    vf_offsets.assign(std::size_t(nv) + 1, 0);
-    for (std::int32_t f = 0; f < nt; ++f)
-      for (int k = 0; k < 3; ++k) ++vf_offsets[std::size_t(triangles[3 * f + k]) + 1];
-    for (std::int32_t v = 0; v < nv; ++v) vf_offsets[v + 1] += vf_offsets[v];
-    vf_faces.assign(std::size_t(vf_offsets[nv]), 0);
-    std::vector<std::int32_t> fill(vf_offsets.begin(), vf_offsets.end() - 1);
-    for (std::int32_t f = 0; f < nt; ++f)
-      for (int k = 0; k < 3; ++k) {
-        const std::int32_t v = triangles[3 * f + k];
-        // a face that names the same vertex twice is listed once
-        if (k > 0 && triangles[3 * f] == v) continue;
-        if (k > 1 && triangles[3 * f + 1] == v) continue;
-        vf_faces[fill[v]++] = f;
-      }
-    // drop the slots left empty by repeated vertices
-    std::vector<std::int32_t> packed;
-    packed.reserve(vf_faces.size());
-    std::vector<std::int32_t> offsets(std::size_t(nv) + 1, 0);
-    for (std::int32_t v = 0; v < nv; ++v) {
-      for (std::int32_t k = vf_offsets[v]; k < fill[v]; ++k) packed.push_back(vf_faces[k]);
-      offsets[v + 1] = std::int32_t(packed.size());
-    }
-    vf_faces.swap(packed);
-    vf_offsets.swap(offsets);
+    geometry::VertexFaces vf = geometry::vertex_faces(triangles.data(), num_triangles(), num_vertices());
+    vf_offsets = std::move(vf.offsets);
+    vf_faces = std::move(vf.faces);
   }
 
   // Recomputes the float vertex normals from the positions (same code as the

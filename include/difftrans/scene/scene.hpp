@@ -6,4 +6,4 @@
 #include "difftrans/scene/camera.hpp"
 #include "difftrans/scene/envmap.hpp"
 #include "difftrans/scene/mesh.hpp"
-#include "difftrans/scene/param_source.hpp"
+#include "difftrans/ad/param_source.hpp"

@@ -2,10 +2,10 @@
 // frozen one as constants that record nothing on a tape.
 #include "support/ad_check.hpp"
 
-#include "difftrans/scene/param_source.hpp"
+#include "difftrans/ad/param_source.hpp"
 
 using namespace dt_test;
-namespace sc = difftrans::scene;
+namespace sc = difftrans::ad;
 
 TEST_CASE("frozen and differentiable sources") {
   const float values[6] = {1, 2, 3, 4, 5, 6};

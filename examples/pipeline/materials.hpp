@@ -5,17 +5,10 @@
 // move through the large-steps parameterization, with a periodic mask L1 +
 // edge-normal term keeping the silhouettes.
 //
-// Losses per training ray (ĉ rendered with one jittered ray, c the
-// photograph's box-filtered pixel, RGB):
-//   colour: L2, Σ_ch (ĉ − c)², or (relative_l2) Σ_ch (ĉ − c)² / (sg(ĉ)² + 0.01)
-//           with sg() held constant, the HDR-robust L2 of RawNeRF (Mildenhall
-//           et al. 2022). Measured on a glass sphere (tests/render/stage2):
-//           plain L2 found IoR 1.4477 for 1.45, relative L2 1.4378 — biased
-//           by the one-ray noise in its denominator — so plain is the default;
-//   tone:   (1 − cos(ĉ, c))², the hue that absorption sets;
-// and on the absorption grid (σ = softplus(p) at its vertices):
-//   smoothness: mean |σ(v) − σ(v')| over neighbouring vertices;
-//   volume:     mean σ².
+// Losses (difftrans/losses/): per training ray (one jittered ray per object
+// pixel) the colour L2 and tone terms of photometric.hpp; on the absorption
+// grid the smoothness and volume terms of absorption.hpp; on the vertices,
+// every mask_every iterations, stage 1's mask L1 + edge-normal refinement loss.
 #pragma once
 
 #include <algorithm>
@@ -28,16 +21,21 @@
 #include <string>
 #include <vector>
 
-#include "difftrans/geometry/regularizers.hpp"
-#include "difftrans/geometry/stage1.hpp"
+#include "difftrans/geometry/topology.hpp"
 #include "difftrans/io/checkpoint.hpp"
+#include "difftrans/losses/absorption.hpp"
+#include "difftrans/losses/photometric.hpp"
 #include "difftrans/optim/adam.hpp"
 #include "difftrans/optim/large_steps.hpp"
 #include "difftrans/render/host_scene.hpp"
 #include "difftrans/render/ray_batch.hpp"
 #include "difftrans/scene/absorption.hpp"
+#include "pipeline/geometry.hpp"
 
-namespace difftrans::render {
+namespace difftrans::pipeline {
+
+// the parts stage 2 assembles
+using namespace difftrans::render;
 
 // One training photograph: its camera, linear RGB pixels and the object mask.
 struct Stage2View {
@@ -108,53 +106,6 @@ struct Stage2Stats {
   double seconds = 0.0, trace_seconds = 0.0;
 };
 
-// Mean |σ(a) − σ(b)| over neighbouring grid vertices (all three axes) and
-// mean σ² over vertices and channels; gradients w.r.t. the raw parameters
-// (σ = softplus(p)) added to `grad` times the weights. Returns {tv, volume}.
-inline std::pair<double, double> absorption_regularizers(const std::vector<float>& raw, const Vec3i& res, float w_tv,
-                                                         float w_volume, std::vector<float>& grad) {
-  const std::size_t n = std::size_t(res.x) * std::size_t(res.y) * std::size_t(res.z);
-  std::vector<float> sigma(raw.size()), dsig(raw.size());
-  for (std::size_t i = 0; i < raw.size(); ++i) {
-    const float p = raw[i];
-    sigma[i] = ad::softplus(p);
-    dsig[i] = ad::sigmoid(p);
-  }
-  double tv = 0.0, vol = 0.0;
-  std::size_t pairs = 0;
-  const auto idx = [&](int i, int j, int k) { return ((std::size_t(k) * std::size_t(res.y) + std::size_t(j)) * std::size_t(res.x) + std::size_t(i)) * 3; };
-  for (int k = 0; k < res.z; ++k)
-    for (int j = 0; j < res.y; ++j)
-      for (int i = 0; i < res.x; ++i) {
-        const int nb[3][3] = {{i + 1, j, k}, {i, j + 1, k}, {i, j, k + 1}};
-        for (const auto& q : nb)
-          if (q[0] < res.x && q[1] < res.y && q[2] < res.z) ++pairs;
-      }
-  const float tv_scale = pairs ? w_tv / float(3 * pairs) : 0.0f, vol_scale = w_volume / float(3 * n);
-  for (int k = 0; k < res.z; ++k)
-    for (int j = 0; j < res.y; ++j)
-      for (int i = 0; i < res.x; ++i) {
-        const std::size_t a = idx(i, j, k);
-        for (int c = 0; c < 3; ++c) {
-          vol += double(sigma[a + c]) * sigma[a + c];
-          grad[a + c] += vol_scale * 2.0f * sigma[a + c] * dsig[a + c];
-        }
-        const int nb[3][3] = {{i + 1, j, k}, {i, j + 1, k}, {i, j, k + 1}};
-        for (const auto& q : nb) {
-          if (q[0] >= res.x || q[1] >= res.y || q[2] >= res.z) continue;
-          const std::size_t b = idx(q[0], q[1], q[2]);
-          for (int c = 0; c < 3; ++c) {
-            const float d = sigma[a + c] - sigma[b + c];
-            tv += std::abs(d);
-            const float s = d > 0.0f ? 1.0f : (d < 0.0f ? -1.0f : 0.0f);
-            grad[a + c] += tv_scale * s * dsig[a + c];
-            grad[b + c] -= tv_scale * s * dsig[b + c];
-          }
-        }
-      }
-  return {pairs ? tv / double(3 * pairs) : 0.0, vol / double(3 * n)};
-}
-
 // The stage-2 optimization over a HostScene that holds the stage-1 mesh and
 // the recovered environment. The constructor sets the scene's IoR and
 // absorption grid to the configured start; step() runs one iteration.
@@ -167,7 +118,7 @@ inline std::pair<double, double> absorption_regularizers(const std::vector<float
 // gradient clipped to norm 1 (clip_geometry; 4 % of the rays clipped).
 class Stage2 {
  public:
-  Stage2(HostScene& scene, std::vector<Stage2View> views, std::vector<geometry::Stage1View> mask_views,
+  Stage2(HostScene& scene, std::vector<Stage2View> views, std::vector<pipeline::Stage1View> mask_views,
          const Stage2Config& config)
       : scene_(scene), views_(std::move(views)), mask_views_(std::move(mask_views)), config_(config),
         positions_(config.lambda) {
@@ -248,34 +199,17 @@ class Stage2 {
     const RayBatchResult rb = ray_batch_gradient<float>(
         scene_, rays,
         [&](std::int32_t i, const Vec3f& L, Vec3f& dL) {
-          const Vec3f& c = target[std::size_t(i)];
-          double color = 0.0;
-          Vec3f g(0.0f);
-          for (int ch = 0; ch < 3; ++ch) {
-            const float denom = config_.relative_l2 ? L[ch] * L[ch] + 0.01f : 1.0f, d = L[ch] - c[ch];
-            color += double(d) * d / denom;
-            g[ch] = 2.0f * d / denom;
-          }
-          if (!(color <= double(config_.max_ray_loss))) {  // NaN or an outlier: no gradient
+          const losses::RayColourLoss l =
+              losses::ray_colour_loss(L, target[std::size_t(i)], config_.relative_l2, w.tone != 0.0f);
+          if (!(l.colour <= double(config_.max_ray_loss))) {  // NaN or an outlier: no gradient
             skipped[std::size_t(i)] = 1;
             dL = Vec3f(0.0f);
             return 0.0;
           }
-          // tone: (1 − cos)², cos = L·c / (|L||c|)
-          double tone = 0.0;
-          Vec3f gt(0.0f);
-          const float nl = glm::length(L), nc = glm::length(c);
-          if (nl > 1e-6f && nc > 1e-6f && w.tone != 0.0f) {
-            const float cosv = glm::dot(L, c) / (nl * nc), one = 1.0f - cosv;
-            tone = double(one) * one;
-            // d cos / dL = c / (|L||c|) − cos · L / |L|²
-            const Vec3f dcos = c / (nl * nc) - cosv * L / (nl * nl);
-            gt = -2.0f * one * dcos;
-          }
-          color_per_ray[std::size_t(i)] = color;
-          tone_per_ray[std::size_t(i)] = tone;
-          dL = inv_n * (w.color * g + w.tone * gt);
-          return w.color * inv_n * color + w.tone * inv_n * tone;
+          color_per_ray[std::size_t(i)] = l.colour;
+          tone_per_ray[std::size_t(i)] = l.tone;
+          dL = inv_n * (w.color * l.dcolour + w.tone * l.dtone);
+          return w.color * inv_n * l.colour + w.tone * inv_n * l.tone;
         },
         grad, po, false, st.geometry_moving ? config_.clip_geometry * inv_n : 0.0f);
     st.clipped_rays = rb.clipped_rays;
@@ -290,7 +224,7 @@ class Stage2 {
 
     // absorption regularizers
     if (config_.optimize_absorption) {
-      const auto [tv, vol] = absorption_regularizers(scene_.absorption_raw, scene_.absorption_res, w.smoothness,
+      const auto [tv, vol] = losses::absorption_regularizers(scene_.absorption_raw, scene_.absorption_res, w.smoothness,
                                                      w.volume, grad.absorption);
       st.smoothness = tv;
       st.volume = vol;
@@ -302,14 +236,14 @@ class Stage2 {
       std::iota(picked.begin(), picked.end(), 0);
       std::shuffle(picked.begin(), picked.end(), rng);
       picked.resize(std::min<std::size_t>(picked.size(), std::size_t(std::max(1, config_.mask_views))));
-      const render::TriangleNeighbors nb = render::TriangleNeighbors::build(scene_.mesh);
+      const geometry::TriangleNeighbors nb = geometry::TriangleNeighbors::build(scene_.mesh);
       if (!adjacency_ready_) {
         adjacency_ = geometry::mesh_adjacency(scene_.mesh.triangles, scene_.mesh.num_vertices());
         adjacency_ready_ = true;
       }
       std::vector<float> gm;
-      const geometry::Stage1RefineStats ms =
-          geometry::stage1_refine_loss(scene_.mesh, nb, adjacency_, mask_views_, picked, w.edge_normal / std::max(w.mask, 1e-12f), gm);
+      const pipeline::Stage1RefineStats ms =
+          pipeline::stage1_refine_loss(scene_.mesh, nb, adjacency_, mask_views_, picked, w.edge_normal / std::max(w.mask, 1e-12f), gm);
       for (std::size_t k = 0; k < gm.size(); ++k) grad.positions[k] += w.mask * gm[k];
       st.mask = ms.mask;
     }
@@ -439,7 +373,7 @@ class Stage2 {
  private:
   HostScene& scene_;
   std::vector<Stage2View> views_;
-  std::vector<geometry::Stage1View> mask_views_;
+  std::vector<pipeline::Stage1View> mask_views_;
   Stage2Config config_;
   optim::LargeStepsOptimizer positions_;
   std::vector<std::vector<std::int32_t>> pixels_;
@@ -451,4 +385,4 @@ class Stage2 {
   std::vector<Stage2Stats> history_;
 };
 
-}  // namespace difftrans::render
+}  // namespace difftrans::pipeline

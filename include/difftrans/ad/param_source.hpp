@@ -1,4 +1,4 @@
-// A flat float array the scene reads its unknowns from: either through the
+// A flat float array a scene or a grid reads its unknowns from: either through the
 // pass's parameter reader (differentiable) or as plain constants (frozen).
 #pragma once
 
@@ -6,13 +6,7 @@
 
 #include "difftrans/ad/glm.hpp"
 
-namespace difftrans::scene {
-
-// value_of / detach / all_finite with the vector overloads of ad/glm.hpp
-// (namespace difftrans re-exports them before those overloads exist).
-using ad::all_finite;
-using ad::detach;
-using ad::value_of;
+namespace difftrans::ad {
 
 // One flat array of scene data (texels, raw absorption, vertex coordinates).
 // buffer >= 0: the array is buffer `buffer` of the pass's ParamSet and every
@@ -42,4 +36,4 @@ DT_HOST_DEVICE DT_FORCEINLINE Vec3<S> load3(Reader& reader, const ParamSource& s
   return Vec3<S>(load<S>(reader, src, i), load<S>(reader, src, i + 1), load<S>(reader, src, i + 2));
 }
 
-}  // namespace difftrans::scene
+}  // namespace difftrans::ad

@@ -1,7 +1,8 @@
 // Geometry regularizers: closed forms on tiny inputs, the eigenvalue solver
 // against Eigen, gradients against central differences, Dual against Var,
 // finite gradients at degenerate inputs, and (skipped by default) their cost.
-#include "difftrans/geometry/regularizers.hpp"
+#include "difftrans/losses/flexicubes_terms.hpp"
+#include "difftrans/losses/mesh_terms.hpp"
 
 #include <doctest/doctest.h>
 
@@ -21,6 +22,7 @@ namespace {
 
 using namespace difftrans;
 using namespace difftrans::geometry;
+using namespace difftrans::losses;
 
 // ------------------------------------------------------------------ meshes
 

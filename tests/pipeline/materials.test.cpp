@@ -3,7 +3,7 @@
 // optimization (depth 4, pruning, one jittered ray per pixel) must find the
 // true IoR and the absorption; the absorption regularizers' gradients must
 // match finite differences.
-#include "difftrans/render/stage2.hpp"
+#include "pipeline/materials.hpp"
 
 #include <doctest/doctest.h>
 
@@ -17,6 +17,8 @@
 
 namespace dr = difftrans::render;
 namespace ds = difftrans::scene;
+namespace losses = difftrans::losses;
+namespace pipeline = difftrans::pipeline;
 namespace dg = difftrans::geometry;
 using difftrans::Vec3f;
 
@@ -48,16 +50,16 @@ Photos photograph(const dr::HostScene& truth, int views, int res) {
   return p;
 }
 
-std::vector<dr::Stage2View> views_of(const Photos& p) {
-  std::vector<dr::Stage2View> v;
+std::vector<pipeline::Stage2View> views_of(const Photos& p) {
+  std::vector<pipeline::Stage2View> v;
   for (std::size_t i = 0; i < p.cams.size(); ++i) v.push_back({p.cams[i], p.images[i].data(), p.masks[i].data()});
   return v;
 }
 
-std::vector<dg::Stage1View> mask_views_of(const Photos& p) {
-  std::vector<dg::Stage1View> v;
+std::vector<pipeline::Stage1View> mask_views_of(const Photos& p) {
+  std::vector<pipeline::Stage1View> v;
   for (std::size_t i = 0; i < p.cams.size(); ++i) {
-    dg::Stage1View s;
+    pipeline::Stage1View s;
     s.camera = p.cams[i];
     for (std::uint8_t m : p.masks[i]) s.target.push_back(m ? 1.0f : 0.0f);
     v.push_back(std::move(s));
@@ -81,10 +83,10 @@ TEST_CASE("absorption regularizers: values and gradients against finite differen
   std::vector<float> raw(3 * 12);
   for (std::size_t i = 0; i < raw.size(); ++i) raw[i] = 0.3f * std::sin(1.7f * float(i)) - 0.2f;
   std::vector<float> g(raw.size(), 0.0f);
-  dr::absorption_regularizers(raw, res, 0.7f, 0.3f, g);
+  losses::absorption_regularizers(raw, res, 0.7f, 0.3f, g);
   const auto f = [&](const std::vector<float>& r) {
     std::vector<float> tmp(r.size(), 0.0f);
-    const auto [tv, vol] = dr::absorption_regularizers(r, res, 0.7f, 0.3f, tmp);
+    const auto [tv, vol] = losses::absorption_regularizers(r, res, 0.7f, 0.3f, tmp);
     return 0.7 * tv + 0.3 * vol;
   };
   for (std::size_t i = 0; i < raw.size(); ++i) {
@@ -100,7 +102,7 @@ TEST_CASE("stage 2 recovers IoR and absorption on a glass sphere (geometry known
   const dr::HostScene truth = glass_sphere(1.45f, sigma_true);
   const Photos photos = photograph(truth, 10, 40);
   dr::HostScene s = glass_sphere(1.3f, Vec3f(0.0f));
-  dr::Stage2Config cfg;
+  pipeline::Stage2Config cfg;
   cfg.iterations = 600;
   cfg.ior_init = 1.55f;
   cfg.freeze_geometry = 100;  // the IoR's slow warm-up (the paper's 1e-4) while the absorption finds its level
@@ -113,10 +115,10 @@ TEST_CASE("stage 2 recovers IoR and absorption on a glass sphere (geometry known
   cfg.lr_ior = 3e-3f;
   cfg.lr_absorption = 5e-2f;
   cfg.lr_decay = 1e-3f;  // a short run: settle the noisy single-ray estimates
-  dr::Stage2 st(s, views_of(photos), {}, cfg);
+  pipeline::Stage2 st(s, views_of(photos), {}, cfg);
   double first = 0.0, last = 0.0;
   while (!st.done()) {
-    const dr::Stage2Stats x = st.step();
+    const pipeline::Stage2Stats x = st.step();
     if (x.iteration < 10) first += x.color / 10.0;
     if (x.iteration >= cfg.iterations - 10) last += x.color / 10.0;
   }
@@ -173,7 +175,7 @@ TEST_CASE("stage 2 with geometry: a dented sphere moves towards the truth") {
     }
     return e / double(n);
   };
-  dr::Stage2Config cfg;
+  pipeline::Stage2Config cfg;
   cfg.iterations = 120;
   cfg.freeze_geometry = 20;
   cfg.rays_per_iteration = 1024;
@@ -185,12 +187,12 @@ TEST_CASE("stage 2 with geometry: a dented sphere moves towards the truth") {
   SUBCASE("default losses with clipping") {
     dr::HostScene s = dented();
     const std::vector<float> start = s.mesh.positions;
-    dr::Stage2 st(s, views_of(photos), mask_views_of(photos), cfg);
+    pipeline::Stage2 st(s, views_of(photos), mask_views_of(photos), cfg);
     std::int64_t clipped = 0, rays = 0;
     for (int i = 0; i < cfg.freeze_geometry; ++i) st.step();
     CHECK(s.mesh.positions == start);  // frozen
     while (!st.done()) {
-      const dr::Stage2Stats x = st.step();
+      const pipeline::Stage2Stats x = st.step();
       clipped += x.clipped_rays;
       rays += x.rays;
     }
@@ -203,9 +205,9 @@ TEST_CASE("stage 2 with geometry: a dented sphere moves towards the truth") {
   }
   SUBCASE("the silhouette term alone (the plumbing: freeze, large steps, BVH refit)") {
     dr::HostScene s = dented();
-    dr::Stage2Config c = cfg;
+    pipeline::Stage2Config c = cfg;
     c.weights.color = c.weights.tone = 0.0f;
-    dr::Stage2 st(s, views_of(photos), mask_views_of(photos), c);
+    pipeline::Stage2 st(s, views_of(photos), mask_views_of(photos), c);
     while (!st.done()) st.step();
     const double after = radius_error(s);
     MESSAGE("silhouettes alone: mean |r - 0.4| " << before << " -> " << after);
@@ -217,7 +219,7 @@ TEST_CASE("stage 2 checkpoint: a resumed fit repeats the uninterrupted one, and 
   // one worker (CTest sets DIFFTRANS_THREADS=1 here): the gradient sums are then in a fixed order
   const dr::HostScene truth = glass_sphere(1.45f, Vec3f(0.3f, 0.6f, 0.9f));
   const Photos photos = photograph(truth, 6, 24);
-  dr::Stage2Config cfg;
+  pipeline::Stage2Config cfg;
   cfg.iterations = 16;
   cfg.freeze_geometry = 6;  // the vertices move from iteration 6: their optimizer's state goes through the file too
   cfg.rays_per_iteration = 256;
@@ -227,19 +229,19 @@ TEST_CASE("stage 2 checkpoint: a resumed fit repeats the uninterrupted one, and 
       std::filesystem::temp_directory_path() / ("difftrans-stage2-" + std::to_string(::getpid()) + ".bin");
 
   dr::HostScene a = fresh();
-  dr::Stage2 straight(a, views_of(photos), mask_views_of(photos), cfg);
+  pipeline::Stage2 straight(a, views_of(photos), mask_views_of(photos), cfg);
   while (!straight.done()) straight.step();
 
   for (const int stop : {3, 10}) {  // before and after the vertices start moving
     CAPTURE(stop);
     {
       dr::HostScene b = fresh();
-      dr::Stage2 first(b, views_of(photos), mask_views_of(photos), cfg);
+      pipeline::Stage2 first(b, views_of(photos), mask_views_of(photos), cfg);
       while (first.iteration() < stop) first.step();
       first.save(file, "run 1");
     }
     dr::HostScene c = fresh();
-    dr::Stage2 second(c, views_of(photos), mask_views_of(photos), cfg);
+    pipeline::Stage2 second(c, views_of(photos), mask_views_of(photos), cfg);
     CHECK_FALSE(second.load(file, "run 2"));  // another run's checkpoint changes nothing
     CHECK(second.iteration() == 0);
     REQUIRE(second.load(file, "run 1"));
@@ -253,10 +255,10 @@ TEST_CASE("stage 2 checkpoint: a resumed fit repeats the uninterrupted one, and 
     CHECK(second.history().back().color == straight.history().back().color);
   }
   {  // a checkpoint of another grid size is refused
-    dr::Stage2Config other = cfg;
+    pipeline::Stage2Config other = cfg;
     other.absorption_res = difftrans::Vec3i(4);
     dr::HostScene d = fresh();
-    dr::Stage2 third(d, views_of(photos), mask_views_of(photos), other);
+    pipeline::Stage2 third(d, views_of(photos), mask_views_of(photos), other);
     CHECK_FALSE(third.load(file, "run 1"));
   }
   std::filesystem::remove(file);

@@ -4,7 +4,7 @@
 // must be closer to the true shape than the initial sphere, refinement must
 // keep it closed and not worse, checkpoints must resume exactly, and the genus
 // count must be right on known meshes.
-#include "difftrans/geometry/stage1.hpp"
+#include "pipeline/geometry.hpp"
 
 #include <doctest/doctest.h>
 
@@ -21,6 +21,7 @@
 namespace dg = difftrans::geometry;
 namespace dr = difftrans::render;
 namespace ds = difftrans::scene;
+namespace pipeline = difftrans::pipeline;
 using difftrans::Vec3f;
 
 namespace {
@@ -37,11 +38,11 @@ std::vector<Vec3f> spread_directions(int n) {
   return d;
 }
 
-std::vector<dg::Stage1View> render_views(const dt_test::Shape& shape, const std::vector<Vec3f>& dirs, int res) {
+std::vector<pipeline::Stage1View> render_views(const dt_test::Shape& shape, const std::vector<Vec3f>& dirs, int res) {
   const ds::TriangleMesh m(shape.positions, shape.triangles);
-  std::vector<dg::Stage1View> views;
+  std::vector<pipeline::Stage1View> views;
   for (const Vec3f& d : dirs) {
-    dg::Stage1View v;
+    pipeline::Stage1View v;
     v.camera = ds::protocol_camera(d, res, res);
     v.target = dr::silhouette_mask<float>(m, v.camera);
     for (float& x : v.target) x = std::min(1.0f, std::max(0.0f, x));
@@ -95,9 +96,9 @@ double chamfer(const std::vector<Vec3f>& a, const std::vector<Vec3f>& b) {
   return one_way(a, b) + one_way(b, a);
 }
 
-dg::Stage1Config tiny_config(int res, int iterations) {
-  dg::Stage1Config c;
-  dg::stage1_unit_box(c, 0.1f);
+pipeline::Stage1Config tiny_config(int res, int iterations) {
+  pipeline::Stage1Config c;
+  pipeline::stage1_unit_box(c, 0.1f);
   c.grid_resolution = res;
   c.iterations = iterations;
   c.mask_only_iterations = iterations / 3;
@@ -143,9 +144,9 @@ TEST_CASE("mesh_genus counts the Euler characteristic, components and genus") {
 
 TEST_CASE("stage 1 recovers a box from its masks better than the initial sphere") {
   const dt_test::Shape box = dt_test::make_box(0.38f, 0.2f, 0.28f);
-  const std::vector<dg::Stage1View> views = render_views(box, spread_directions(8), 48);
-  dg::Stage1Config cfg = tiny_config(20, 60);
-  dg::Stage1FlexiCubes fc(cfg);
+  const std::vector<pipeline::Stage1View> views = render_views(box, spread_directions(8), 48);
+  pipeline::Stage1Config cfg = tiny_config(20, 60);
+  pipeline::Stage1FlexiCubes fc(cfg);
 
   const dg::FlexiCubesMesh<float> init = fc.extract();
   std::vector<float> init_pos;
@@ -166,7 +167,7 @@ TEST_CASE("stage 1 recovers a box from its masks better than the initial sphere"
         }
   const double cd_init = chamfer(surface_points(init_pos, init.triangles), truth);
 
-  std::vector<dg::Stage1Stats> stats;
+  std::vector<pipeline::Stage1Stats> stats;
   while (!fc.done()) {
     stats.push_back(fc.step(views));
     if (std::getenv("STAGE1_VERBOSE"))  // per-iteration numbers, for tuning
@@ -204,17 +205,17 @@ TEST_CASE("stage 1 recovers a box from its masks better than the initial sphere"
   CHECK(chamfer(surface_points(clean_pos, clean_tris), truth) <= cd_raw * 1.01);
 
   SUBCASE("refinement keeps a closed mesh and does not lose accuracy") {
-    const dg::Stage1RefineResult r = dg::stage1_refine(raw_pos, raw.triangles, views, cfg);
+    const pipeline::Stage1RefineResult r = pipeline::stage1_refine(raw_pos, raw.triangles, views, cfg);
     CHECK(r.remeshed);
     REQUIRE(r.mask.size() == 30);
     const double cd_ref = chamfer(surface_points(r.positions, r.triangles), truth);
     const dg::MeshGenus gr = dg::mesh_genus(r.triangles, std::int32_t(r.positions.size() / 3));
-    dg::Stage1Config no_refine = cfg;
+    pipeline::Stage1Config no_refine = cfg;
     no_refine.refine_iterations = 0;
-    const dg::Stage1RefineResult r0 = dg::stage1_refine(raw_pos, raw.triangles, views, no_refine);
+    const pipeline::Stage1RefineResult r0 = pipeline::stage1_refine(raw_pos, raw.triangles, views, no_refine);
     CHECK(r0.mask.empty());
-    const double before = dg::stage1_mask_error(r0.positions, r0.triangles, views);
-    const double after = dg::stage1_mask_error(r.positions, r.triangles, views);
+    const double before = pipeline::stage1_mask_error(r0.positions, r0.triangles, views);
+    const double after = pipeline::stage1_mask_error(r.positions, r.triangles, views);
     MESSAGE("refined: Chamfer " << cd_ref << ", mask L1 over all views after remeshing " << before << " -> " << after << ", "
                                 << r.positions.size() / 3 << " vertices");
     CHECK(gr.closed);
@@ -226,18 +227,18 @@ TEST_CASE("stage 1 recovers a box from its masks better than the initial sphere"
 
 TEST_CASE("stage 1 checkpoints resume to the same state") {
   const dt_test::Shape sphere = dt_test::make_icosphere(0.3f, 2);
-  const std::vector<dg::Stage1View> views = render_views(sphere, spread_directions(6), 32);
-  dg::Stage1Config cfg = tiny_config(12, 12);
+  const std::vector<pipeline::Stage1View> views = render_views(sphere, spread_directions(6), 32);
+  pipeline::Stage1Config cfg = tiny_config(12, 12);
   // (one file per process: concurrent runs of this test must not share it)
   const std::filesystem::path file =
       std::filesystem::temp_directory_path() / ("difftrans_stage1_checkpoint_test_" + std::to_string(::getpid()) + ".bin");
 
-  dg::Stage1FlexiCubes a(cfg);
+  pipeline::Stage1FlexiCubes a(cfg);
   for (int i = 0; i < 6; ++i) a.step(views);
   a.save(file);
   for (int i = 0; i < 6; ++i) a.step(views);
 
-  dg::Stage1FlexiCubes b(cfg);
+  pipeline::Stage1FlexiCubes b(cfg);
   REQUIRE(b.load(file));
   CHECK(b.iteration() == 6);
   CHECK(b.loss_history().size() == 6);
@@ -255,9 +256,9 @@ TEST_CASE("stage 1 checkpoints resume to the same state") {
     CHECK(diff < 1e-4);
 
   // another grid refuses the file and keeps its own state
-  dg::Stage1Config other = cfg;
+  pipeline::Stage1Config other = cfg;
   other.grid_resolution = 10;
-  dg::Stage1FlexiCubes c(other);
+  pipeline::Stage1FlexiCubes c(other);
   CHECK_FALSE(c.load(file));
   CHECK(c.iteration() == 0);
   CHECK_FALSE(c.load(file.string() + ".absent"));
@@ -269,13 +270,13 @@ TEST_CASE("stage 1 on a torus: genus") {
   std::vector<Vec3f> dirs = spread_directions(10);
   dirs.push_back(Vec3f(0.05f, 1.0f, 0.02f));   // through the hole from above
   dirs.push_back(Vec3f(0.02f, -1.0f, 0.05f));  // and from below
-  const std::vector<dg::Stage1View> views = render_views(torus, dirs, 48);
-  dg::Stage1Config cfg = tiny_config(24, 90);
+  const std::vector<pipeline::Stage1View> views = render_views(torus, dirs, 48);
+  pipeline::Stage1Config cfg = tiny_config(24, 90);
   cfg.views_per_iteration = 6;
   SUBCASE("from the sphere (the paper's start): the hole stays closed") {
     // The masks show the hole, but silhouette gradients act only on the
     // rendered outline, and the sphere's cap over the hole has none there.
-    dg::Stage1FlexiCubes fc(cfg);
+    pipeline::Stage1FlexiCubes fc(cfg);
     while (!fc.done()) fc.step(views);
     const dg::FlexiCubesMesh<float> raw = fc.extract();
     const dg::MeshGenus g = dg::mesh_genus(raw.triangles, std::int32_t(raw.vertices.size()));
@@ -286,7 +287,7 @@ TEST_CASE("stage 1 on a torus: genus") {
     WARN(g.genus == 1);  // reported, not required
   }
   SUBCASE("from the visual hull: genus 1, and the optimization keeps it") {
-    dg::Stage1FlexiCubes fc(cfg);
+    pipeline::Stage1FlexiCubes fc(cfg);
     fc.init_visual_hull(views);
     {
       std::vector<float> pos;
@@ -294,7 +295,7 @@ TEST_CASE("stage 1 on a torus: genus") {
       for (const Vec3f& v : m.vertices) pos.insert(pos.end(), {v.x, v.y, v.z});
       const dg::MeshGenus g0 = dg::mesh_genus(m.triangles, std::int32_t(m.vertices.size()));
       MESSAGE("torus visual hull: genus " << g0.genus << ", components " << g0.components << ", mask L1 "
-                                          << dg::stage1_mask_error(pos, m.triangles, views));
+                                          << pipeline::stage1_mask_error(pos, m.triangles, views));
     }
     while (!fc.done()) fc.step(views);
     dg::FlexiCubesMesh<float> raw = fc.extract();
@@ -303,11 +304,11 @@ TEST_CASE("stage 1 on a torus: genus") {
     dg::drop_small_components(pos, raw.triangles);
     const dg::MeshGenus g = dg::mesh_genus(raw.triangles, std::int32_t(pos.size() / 3));
     MESSAGE("torus from the visual hull: genus " << g.genus << ", components " << g.components << ", mask L1 "
-                                                 << dg::stage1_mask_error(pos, raw.triangles, views));
+                                                 << pipeline::stage1_mask_error(pos, raw.triangles, views));
     CHECK(g.closed);
     CHECK(g.components == 1);
     CHECK(g.genus == 1);
-    CHECK(dg::stage1_mask_error(pos, raw.triangles, views) < 0.02);
+    CHECK(pipeline::stage1_mask_error(pos, raw.triangles, views) < 0.02);
   }
 }
 
@@ -316,8 +317,8 @@ TEST_CASE("carving: grid vertices seen on background stay outside; a seen-throug
   std::vector<Vec3f> dirs = spread_directions(10);
   dirs.push_back(Vec3f(0.05f, 1.0f, 0.02f));
   dirs.push_back(Vec3f(0.02f, -1.0f, 0.05f));
-  const std::vector<dg::Stage1View> views = render_views(torus, dirs, 48);
-  dg::Stage1Config cfg = tiny_config(24, 60);
+  const std::vector<pipeline::Stage1View> views = render_views(torus, dirs, 48);
+  pipeline::Stage1Config cfg = tiny_config(24, 60);
   cfg.views_per_iteration = 6;
   cfg.mask_only_iterations = 0;
   cfg.alternate_period = 60;      // dilation throughout
@@ -325,7 +326,7 @@ TEST_CASE("carving: grid vertices seen on background stay outside; a seen-throug
   cfg.dilation_band = 3.0f;
 
   SUBCASE("outside_masks: the hole's centre and the corners are outside, the tube is not; the margin erodes") {
-    dg::Stage1FlexiCubes fc(cfg);
+    pipeline::Stage1FlexiCubes fc(cfg);
     const dg::FlexiCubesGrid& g = fc.grid();
     const int c = g.res / 2;
     const auto at = [&](int i, int j, int k) { return std::size_t(g.vertex_index(i, j, k)); };
@@ -347,9 +348,9 @@ TEST_CASE("carving: grid vertices seen on background stay outside; a seen-throug
   SUBCASE("the hole stays open with carving and closes without it") {
     int genus[2] = {-1, -1};
     for (int carve = 0; carve < 2; ++carve) {
-      dg::Stage1Config c = cfg;
+      pipeline::Stage1Config c = cfg;
       c.carve_margin = carve ? 1 : -1;
-      dg::Stage1FlexiCubes fc(c);
+      pipeline::Stage1FlexiCubes fc(c);
       fc.init_visual_hull(views);
       fc.set_carving(views);
       CHECK((fc.carved_vertices() > 0) == bool(carve));
@@ -360,7 +361,7 @@ TEST_CASE("carving: grid vertices seen on background stay outside; a seen-throug
       dg::drop_small_components(pos, raw.triangles);
       genus[carve] = int(dg::mesh_genus(raw.triangles, std::int32_t(pos.size() / 3)).genus);
       MESSAGE("strong dilation, carving " << std::string(carve ? "on" : "off") << ": genus " << genus[carve] << ", mask L1 "
-                                          << dg::stage1_mask_error(pos, raw.triangles, views));
+                                          << pipeline::stage1_mask_error(pos, raw.triangles, views));
     }
     CHECK(genus[0] == 0);  // the setting is strong enough to close the hole...
     CHECK(genus[1] == 1);  // ...unless the masks keep it open

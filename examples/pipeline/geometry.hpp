@@ -21,16 +21,24 @@
 #include "difftrans/ad/params.hpp"
 #include "difftrans/ad/tape.hpp"
 #include "difftrans/geometry/flexicubes.hpp"
-#include "difftrans/geometry/regularizers.hpp"
 #include "difftrans/geometry/remesh.hpp"
+#include "difftrans/geometry/topology.hpp"
 #include "difftrans/io/checkpoint.hpp"
+#include "difftrans/losses/flexicubes_terms.hpp"
+#include "difftrans/losses/mask.hpp"
+#include "difftrans/losses/mesh_terms.hpp"
+#include "difftrans/losses/screen_smoothness.hpp"
 #include "difftrans/optim/adam.hpp"
 #include "difftrans/optim/large_steps.hpp"
 #include "difftrans/render/silhouette.hpp"
 #include "difftrans/scene/camera.hpp"
 #include "difftrans/scene/mesh.hpp"
 
-namespace difftrans::geometry {
+namespace difftrans::pipeline {
+
+// the parts stage 1 assembles
+using namespace difftrans::geometry;
+using namespace difftrans::losses;
 
 // One training view: its camera and the target mask (width·height values in
 // [0, 1], row 0 at the top, as the rasterizer stores pixels).
@@ -45,8 +53,8 @@ struct Stage1View {
 enum class Stage1Smoothness : int { screen_space, edge_normal, none };
 
 // Loss weights. The mask L1 is the mean over a view's pixels, averaged over
-// the views of a batch; every other term as its function in regularizers.hpp
-// / silhouette.hpp computes it.
+// the views of a batch; every other term as its function in difftrans/losses/
+// computes it.
 struct Stage1Weights {
   float mask = 1.0f;
   float dilation = 0.1f;         // mean SDF (tape-free), in the dilation phases
@@ -323,9 +331,9 @@ class Stage1FlexiCubes {
   // The unknowns as extraction inputs, differentiable (buffers 0..4) or constant.
   FlexiCubesInputs inputs(bool differentiable) const {
     FlexiCubesInputs in;
-    scene::ParamSource* src[5] = {&in.sdf, &in.deform, &in.alpha, &in.beta, &in.gamma};
+    ad::ParamSource* src[5] = {&in.sdf, &in.deform, &in.alpha, &in.beta, &in.gamma};
     for (int b = 0; b < 5; ++b)
-      *src[b] = scene::ParamSource{params_.data() + offset_[b], std::int32_t(size_[b]), differentiable ? b : -1};
+      *src[b] = ad::ParamSource{params_.data() + offset_[b], std::int32_t(size_[b]), differentiable ? b : -1};
     return in;
   }
 
@@ -403,7 +411,7 @@ class Stage1FlexiCubes {
       std::vector<float> term_weights;
       if (!mesh.triangles.empty()) {
         const scene::TriangleMesh fm(pos, mesh.triangles);
-        const render::TriangleNeighbors nb = render::TriangleNeighbors::build(fm);
+        const geometry::TriangleNeighbors nb = geometry::TriangleNeighbors::build(fm);
         const std::vector<int> picked = batch(it, int(views.size()), config_.views_per_iteration);
         const float per_view = 1.0f / float(std::max<std::size_t>(1, picked.size()));
         std::vector<float> gsmooth;
@@ -413,10 +421,10 @@ class Stage1FlexiCubes {
           const render::SilhouetteFrame f = render::prepare_silhouette(fm, nb, view.camera);
           const std::vector<float> m = render::antialiased_mask<float>(f, fm, view.camera);
           std::vector<float> adj(m.size());
-          st.mask += render::mask_l1(m, view.target.data(), adj.data()) * per_view;
+          st.mask += losses::mask_l1(m, view.target.data(), adj.data()) * per_view;
           for (float& a : adj) a *= w.mask * per_view;
           render::silhouette_backward(f, fm, view.camera, adj.data(), gpos.data());
-          if (!gsmooth.empty()) st.smoothness += render::smoothness_gradient(fm, view.camera, gsmooth.data()) * per_view;
+          if (!gsmooth.empty()) st.smoothness += losses::smoothness_gradient(fm, view.camera, gsmooth.data()) * per_view;
         }
         for (std::size_t k = 0; k < gsmooth.size(); ++k) gpos[k] += w.smoothness * per_view * gsmooth[k];
         st.render_seconds = seconds_since(tr);
@@ -644,9 +652,9 @@ inline double stage1_mask_error(const std::vector<float>& positions, const std::
                                 const std::vector<Stage1View>& views) {
   if (views.empty()) return 0.0;
   const scene::TriangleMesh m(positions, triangles);
-  const render::TriangleNeighbors nb = render::TriangleNeighbors::build(m);
+  const geometry::TriangleNeighbors nb = geometry::TriangleNeighbors::build(m);
   double sum = 0.0;
-  for (const Stage1View& v : views) sum += render::mask_l1(render::silhouette_mask<float>(m, v.camera, &nb), v.target.data());
+  for (const Stage1View& v : views) sum += losses::mask_l1(render::silhouette_mask<float>(m, v.camera, &nb), v.target.data());
   return sum / double(views.size());
 }
 
@@ -670,7 +678,7 @@ struct Stage1RefineResult {
 
 // Mask L1 (a batch of views) + edge-normal smoothness of a float mesh, and
 // the gradient w.r.t. its positions (3 per vertex) written to `grad`.
-inline Stage1RefineStats stage1_refine_loss(const scene::TriangleMesh& m, const render::TriangleNeighbors& nb,
+inline Stage1RefineStats stage1_refine_loss(const scene::TriangleMesh& m, const geometry::TriangleNeighbors& nb,
                                             const MeshAdjacency& adj, const std::vector<Stage1View>& views,
                                             const std::vector<int>& picked, float edge_weight, std::vector<float>& grad) {
   Stage1RefineStats st;
@@ -681,7 +689,7 @@ inline Stage1RefineStats stage1_refine_loss(const scene::TriangleMesh& m, const 
     const render::SilhouetteFrame f = render::prepare_silhouette(m, nb, view.camera);
     const std::vector<float> mask = render::antialiased_mask<float>(f, m, view.camera);
     std::vector<float> adjoint(mask.size());
-    st.mask += render::mask_l1(mask, view.target.data(), adjoint.data()) * per_view;
+    st.mask += losses::mask_l1(mask, view.target.data(), adjoint.data()) * per_view;
     for (float& a : adjoint) a *= per_view;
     render::silhouette_backward(f, m, view.camera, adjoint.data(), grad.data());
   }
@@ -735,7 +743,7 @@ inline Stage1RefineResult stage1_refine(const std::vector<float>& positions, con
 
   const auto t1 = clock::now();
   scene::TriangleMesh m(out.positions, out.triangles);
-  const render::TriangleNeighbors nb = render::TriangleNeighbors::build(m);
+  const geometry::TriangleNeighbors nb = geometry::TriangleNeighbors::build(m);
   const MeshAdjacency adj = mesh_adjacency(m.triangles, m.num_vertices());
   optim::AdamOptions ao;
   ao.lr = config.refine_lr;
@@ -762,86 +770,4 @@ inline Stage1RefineResult stage1_refine(const std::vector<float>& positions, con
   return out;
 }
 
-// ------------------------------------------------------------------ topology of the result
-
-struct MeshGenus {
-  std::int32_t vertices = 0, edges = 0, faces = 0;  // vertices: those used by some face
-  std::int32_t components = 0;
-  std::int64_t euler = 0;                            // V − E + F
-  std::int64_t genus = 0;                            // (2 C − χ) / 2: the total genus of closed components
-  bool closed = true;                                // every edge shared by exactly two faces
-};
-
-inline MeshGenus mesh_genus(const std::vector<std::int32_t>& triangles, std::int32_t num_vertices) {
-  MeshGenus g;
-  const MeshAdjacency adj = mesh_adjacency(triangles, num_vertices);
-  std::vector<std::int32_t> parent(static_cast<std::size_t>(num_vertices));
-  std::iota(parent.begin(), parent.end(), 0);
-  const auto find = [&](std::int32_t v) {
-    while (parent[std::size_t(v)] != v) v = parent[std::size_t(v)] = parent[std::size_t(parent[std::size_t(v)])];
-    return v;
-  };
-  std::vector<std::uint8_t> used(static_cast<std::size_t>(num_vertices), 0);
-  for (std::size_t f = 0; f + 2 < triangles.size(); f += 3)
-    for (int k = 0; k < 3; ++k) {
-      used[std::size_t(triangles[f + std::size_t(k)])] = 1;
-      const std::int32_t a = find(triangles[f + std::size_t(k)]), b = find(triangles[f + std::size_t((k + 1) % 3)]);
-      if (a != b) parent[std::size_t(a)] = b;
-    }
-  for (std::int32_t v = 0; v < num_vertices; ++v)
-    if (used[std::size_t(v)]) {
-      ++g.vertices;
-      if (find(v) == v) ++g.components;
-    }
-  g.edges = adj.num_edges();
-  g.faces = std::int32_t(triangles.size() / 3);
-  for (std::int32_t e = 0; e < adj.num_edges(); ++e)
-    if (adj.edge_faces[std::size_t(2 * e + 1)] < 0) g.closed = false;
-  g.euler = std::int64_t(g.vertices) - g.edges + g.faces;
-  g.genus = (2 * std::int64_t(g.components) - g.euler) / 2;
-  return g;
-}
-
-// Drops the connected components with fewer than `min_fraction` of the
-// largest component's triangles (floaters, bubbles the masks cannot see) and
-// the vertices no triangle uses. Returns the number of components dropped.
-inline int drop_small_components(std::vector<float>& positions, std::vector<std::int32_t>& triangles,
-                                 float min_fraction = 0.05f) {
-  const std::int32_t nv = std::int32_t(positions.size() / 3);
-  std::vector<std::int32_t> parent(static_cast<std::size_t>(nv));
-  std::iota(parent.begin(), parent.end(), 0);
-  const auto find = [&](std::int32_t v) {
-    while (parent[std::size_t(v)] != v) v = parent[std::size_t(v)] = parent[std::size_t(parent[std::size_t(v)])];
-    return v;
-  };
-  for (std::size_t f = 0; f + 2 < triangles.size(); f += 3)
-    for (int k = 0; k < 2; ++k) {
-      const std::int32_t a = find(triangles[f + std::size_t(k)]), b = find(triangles[f + std::size_t(k) + 1]);
-      if (a != b) parent[std::size_t(a)] = b;
-    }
-  std::vector<std::int64_t> count(static_cast<std::size_t>(nv), 0);
-  for (std::size_t f = 0; f + 2 < triangles.size(); f += 3) ++count[std::size_t(find(triangles[f]))];
-  const std::int64_t largest = count.empty() ? 0 : *std::max_element(count.begin(), count.end());
-  int dropped = 0;
-  for (std::int32_t v = 0; v < nv; ++v)
-    if (find(v) == v && count[std::size_t(v)] > 0 && double(count[std::size_t(v)]) < double(min_fraction) * double(largest))
-      ++dropped;
-  std::vector<std::int32_t> remap(static_cast<std::size_t>(nv), -1), kept;
-  std::vector<float> pos;
-  for (std::size_t f = 0; f + 2 < triangles.size(); f += 3) {
-    if (double(count[std::size_t(find(triangles[f]))]) < double(min_fraction) * double(largest)) continue;
-    for (int k = 0; k < 3; ++k) {
-      const std::int32_t v = triangles[f + std::size_t(k)];
-      if (remap[std::size_t(v)] < 0) {
-        remap[std::size_t(v)] = std::int32_t(pos.size() / 3);
-        pos.insert(pos.end(), positions.begin() + 3 * std::ptrdiff_t(v), positions.begin() + 3 * std::ptrdiff_t(v) + 3);
-      }
-      kept.push_back(remap[std::size_t(v)]);
-    }
-  }
-  positions.swap(pos);
-  triangles.swap(kept);
-  return dropped;
-}
-
-}  // namespace difftrans::geometry
+}  // namespace difftrans::pipeline
