@@ -18,7 +18,6 @@
 #include "difftrans/io/contact_sheet.hpp"
 #include "difftrans/io/hdr.hpp"
 #include "difftrans/io/png.hpp"
-#include "difftrans/render/background.hpp"
 
 namespace difftrans::cli {
 namespace {
@@ -44,9 +43,9 @@ void add_run_options(CLI::App* cmd, RunOptions& opt) {
 
 void add_reconstruct(CLI::App& app) {
   auto opt = std::make_shared<ReconstructOptions>();
-  auto environment = std::make_shared<EnvironmentStageOptions>();
-  auto geometry = std::make_shared<GeometryStageOptions>();
-  auto materials = std::make_shared<MaterialsStageOptions>();
+  auto environment = std::make_shared<pipeline::EnvironmentConfig>();
+  auto geometry = std::make_shared<GeometryOptions>();
+  auto materials = std::make_shared<pipeline::Stage2Config>();
   auto run = std::make_shared<RunOptions>();
   CLI::App* cmd = app.add_subcommand("reconstruct", "Reconstruct a transparent object from a scene directory");
   cmd->add_option("scene", opt->scene, "Scene directory (transforms_train.json, images, masks)")->required();

@@ -15,7 +15,7 @@
 
 #include "difftrans/io/dataset.hpp"
 #include "difftrans/io/image_file.hpp"
-#include "difftrans/render/exposure.hpp"
+#include "pipeline/exposure.hpp"
 
 namespace difftrans::cli {
 
@@ -145,7 +145,7 @@ inline io::Json apply_exposure_option(io::Scene& scene, const ExposureCliOptions
     } else {
       const io::Image map = io::read_image(env_file);
       const scene::EnvMap env = scene::equirect_environment(map.rgb.data(), map.width, map.height);
-      const render::ExposureEstimate e = render::estimate_exposure(scene.train, env);
+      const pipeline::ExposureEstimate e = pipeline::estimate_exposure(scene.train, env);
       if (!(e.pixels > 0))
         throw io::Error(scene.dir, "cannot estimate the exposure: no background pixel is both unclipped and bright "
                                    "enough (" + std::to_string(e.clipped) + " clipped, " + std::to_string(e.dark) +
@@ -161,8 +161,8 @@ inline io::Json apply_exposure_option(io::Scene& scene, const ExposureCliOptions
   }
   j["scale"] = scale;
   if (scale != 1.0) {
-    render::apply_exposure(scene.train, scale);
-    render::apply_exposure(scene.test, scale);
+    pipeline::apply_exposure(scene.train, scale);
+    pipeline::apply_exposure(scene.test, scale);
   }
   return j;
 }

@@ -13,6 +13,7 @@
 #include <sys/resource.h>
 
 #include "command.hpp"
+#include "config_options.hpp"
 #include "stages.hpp"
 #include "stage_output.hpp"
 #include "views.hpp"
@@ -21,7 +22,7 @@
 #include "difftrans/io/hdr.hpp"
 #include "difftrans/io/png.hpp"
 #include "difftrans/io/radiance_field.hpp"
-#include "difftrans/render/background.hpp"
+#include "pipeline/environment.hpp"
 #include "difftrans/scene/radiance_field_fit.hpp"
 
 namespace difftrans::cli {
@@ -46,7 +47,7 @@ std::vector<int> parse_int_list(const std::string& text, const std::string& opti
 }
 
 // The map width: --env-width, else from the images' angular resolution.
-int map_width(const io::Scene& scene, const EnvironmentStageOptions& opt) {
+int map_width(const io::Scene& scene, const pipeline::EnvironmentConfig& opt) {
   if (opt.env_width > 0) return opt.env_width;
   const auto& k = scene.train.frames.front().intrinsics;
   return scene::envmap_width_for(1.0 / std::max(k.fx, k.fy), opt.env_max_width);
@@ -60,17 +61,17 @@ void write_comparison(const io::Scene& scene, const Radiance& radiance, const fs
   std::vector<io::SheetRow> rows;
   const auto picked = io::spread_indices(int(views.frames.size()), 4);
   renders.reserve(picked.size());
-  for (int i : picked) renders.push_back(render::environment_view_with(views.frames[std::size_t(i)], radiance));
+  for (int i : picked) renders.push_back(pipeline::environment_view_with(views.frames[std::size_t(i)], radiance));
   for (std::size_t k = 0; k < picked.size(); ++k)
     rows.push_back({&views.frames[std::size_t(picked[k])].image, &renders[k]});
   if (!rows.empty()) io::write_png8(file, io::comparison_sheet(rows));
 }
 
-std::vector<scene::EnvObservation> observations(const io::Scene& scene, const EnvironmentStageOptions& opt) {
+std::vector<scene::EnvObservation> observations(const io::Scene& scene, const pipeline::EnvironmentConfig& opt) {
   std::vector<std::string> skipped;
-  render::BackgroundOptions bo;
+  pipeline::BackgroundOptions bo;
   bo.margin = opt.margin;
-  auto obs = render::background_observations(scene.train, bo, &skipped);
+  auto obs = pipeline::background_observations(scene.train, bo, &skipped);
   for (const auto& name : skipped) warn("environment: frame " + name + " has no mask; its pixels are not used");
   if (obs.empty())
     throw io::Error(scene.dir, "no background pixels to fit the environment to (every training pixel lies within " +
@@ -79,7 +80,7 @@ std::vector<scene::EnvObservation> observations(const io::Scene& scene, const En
 }
 
 // Distant: the equirectangular map.
-io::Json distant_environment(const io::Scene& scene, const fs::path& out, const EnvironmentStageOptions& opt) {
+io::Json distant_environment(const io::Scene& scene, const fs::path& out, const pipeline::EnvironmentConfig& opt) {
   const auto t0 = clock_type::now();
   const auto obs = observations(scene, opt);
   scene::EnvFitOptions fo;
@@ -105,8 +106,8 @@ io::Json distant_environment(const io::Scene& scene, const fs::path& out, const 
   j["rms_residual"] = fit.rms_residual;
   j["fit_seconds"] = fit_seconds;
   j["peak_memory_mb"] = peak_memory_mb();
-  j["psnr_background_train"] = render::background_psnr(scene.train, env, opt.margin);
-  if (!scene.test.frames.empty()) j["psnr_background_test"] = render::background_psnr(scene.test, env, opt.margin);
+  j["psnr_background_train"] = pipeline::background_psnr(scene.train, env, opt.margin);
+  if (!scene.test.frames.empty()) j["psnr_background_test"] = pipeline::background_psnr(scene.test, env, opt.margin);
   // against the ground-truth map, over the directions the cameras saw
   if (!scene.gt.envmap.empty() && fs::exists(scene.gt.envmap)) {
     const io::Image gt = io::read_image(scene.gt.envmap);
@@ -127,12 +128,12 @@ io::Json distant_environment(const io::Scene& scene, const fs::path& out, const 
       }
     if (n) j["psnr_map_seen"] = metrics::detail::psnr_from_mse(se / double(n));
   }
-  write_comparison(scene, render::distant_radiance(env), out / "environment_comparison.png");
+  write_comparison(scene, pipeline::distant_radiance(env), out / "environment_comparison.png");
   return j;
 }
 
 // Near: the radiance field in a cube around the object's centre that holds every training camera.
-io::Json near_environment(const io::Scene& scene, const fs::path& out, const EnvironmentStageOptions& opt) {
+io::Json near_environment(const io::Scene& scene, const fs::path& out, const pipeline::EnvironmentConfig& opt) {
   scene::FieldFitOptions fo;
   fo.resolutions = parse_int_list(opt.field_resolutions, "--field-resolutions", 2);
   fo.iterations = parse_int_list(opt.field_iterations, "--field-iterations", 0);
@@ -195,60 +196,23 @@ io::Json near_environment(const io::Scene& scene, const fs::path& out, const Env
   j["panorama"] = {{"width", w}, {"height", h}, {"from", {centre.x, centre.y, centre.z}}};
   j["fit_seconds"] = fit_seconds;
   j["peak_memory_mb"] = peak_memory_mb();
-  j["psnr_background_train"] = render::background_psnr_with(scene.train, radiance, opt.margin);
+  j["psnr_background_train"] = pipeline::background_psnr_with(scene.train, radiance, opt.margin);
   if (!scene.test.frames.empty())
-    j["psnr_background_test"] = render::background_psnr_with(scene.test, radiance, opt.margin);
+    j["psnr_background_test"] = pipeline::background_psnr_with(scene.test, radiance, opt.margin);
   write_comparison(scene, radiance, out / "environment_comparison.png");
   return j;
 }
 
 }  // namespace
 
-void add_environment_options(CLI::App* cmd, EnvironmentStageOptions& opt) {
-  cmd->add_option("--env-model", opt.model,
-                  "Environment model: auto (scene.json's \"environment\"; distant when absent), distant "
-                  "(equirectangular map) or near (radiance field)")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"auto", "distant", "near"}));
-  cmd->add_option("--margin", opt.margin, "Pixels around the mask left out of the environment fit")
-      ->capture_default_str()
-      ->check(CLI::Range(0, 1000));
-  cmd->add_option("--env-width", opt.env_width,
-                  "Environment map (or panorama) width (0: from the images' angular resolution)")
-      ->check(CLI::Range(0, 16384));
-  cmd->add_option("--env-max-width", opt.env_max_width, "Largest automatic map width")
-      ->capture_default_str()
-      ->check(CLI::Range(16, 16384));
-  cmd->add_option("--env-smoothness", opt.smoothness, "Weight of the distant map's smoothness prior")
-      ->capture_default_str()
-      ->check(CLI::Range(0.0, 1e6));
-  cmd->add_option("--field-resolutions", opt.field_resolutions,
-                  "Radiance field: grid vertices per axis of each coarse-to-fine level")
-      ->capture_default_str();
-  cmd->add_option("--field-iterations", opt.field_iterations, "Radiance field: iterations per level (one count or one per level)")
-      ->capture_default_str();
-  cmd->add_option("--field-batch", opt.field_batch, "Radiance field: rays per iteration")
-      ->capture_default_str()
-      ->check(CLI::Range(1, 1 << 24));
-  cmd->add_option("--field-extent", opt.field_extent,
-                  "Radiance field: half-size of its cube / distance of the farthest camera from the object's centre")
-      ->capture_default_str()
-      ->check(CLI::Range(1.0, 100.0));
-  cmd->add_option("--field-lr", opt.field_lr, "Radiance field: Adam learning rate (decays tenfold over the fit)")
-      ->capture_default_str()
-      ->check(CLI::Range(1e-6, 10.0));
-  cmd->add_option("--field-tv", opt.field_tv, "Radiance field: weight of the smoothness prior on the grid")
-      ->capture_default_str()
-      ->check(CLI::Range(0.0, 1e3));
-  cmd->add_option("--field-sparsity", opt.field_sparsity, "Radiance field: weight of the density sparsity prior")
-      ->capture_default_str()
-      ->check(CLI::Range(0.0, 1e3));
-  cmd->add_option("--field-seed", opt.field_seed, "Radiance field: seed of the ray batches")->capture_default_str();
+void add_environment_options(CLI::App* cmd, pipeline::EnvironmentConfig& config) {
+  add_config_options(cmd, config, "");
 }
 
-io::Json environment_stage(const io::Scene& scene, const fs::path& out, const EnvironmentStageOptions& opt) {
-  std::string model = opt.model;
-  if (model == "auto") {
+io::Json environment_stage(const io::Scene& scene, const fs::path& out, const pipeline::EnvironmentConfig& opt) {
+  const std::string requested = pipeline::detail::enum_name(opt.model);
+  std::string model = requested;
+  if (opt.model == pipeline::EnvironmentModel::automatic) {
     if (scene.has_scene_json) {
       model = io::to_string(scene.settings.environment);
       progress("environment: scene.json says \"" + model + "\"");
@@ -262,7 +226,8 @@ io::Json environment_stage(const io::Scene& scene, const fs::path& out, const En
   }
   if (scene.train.frames.empty()) throw io::Error(scene.dir, "no training frames");
   io::Json j = model == "near" ? near_environment(scene, out, opt) : distant_environment(scene, out, opt);
-  j["model_source"] = opt.model == "auto" ? (scene.has_scene_json ? "scene.json" : "default") : "--env-model";
+  pipeline::write_fields(opt, j["settings"]);
+  j["model_source"] = opt.model == pipeline::EnvironmentModel::automatic ? (scene.has_scene_json ? "scene.json" : "default") : "--env-model";
   progress("environment: " + model + " model, background PSNR train " + fixed(j["psnr_background_train"].get<double>(), 2) +
            (j.contains("psnr_background_test") ? ", test " + fixed(j["psnr_background_test"].get<double>(), 2) : "") +
            " dB, " + fixed(j["fit_seconds"].get<double>(), 1) + " s");

@@ -16,12 +16,12 @@
 #include <sstream>
 #include <sys/resource.h>
 
-#include "pipeline/geometry.hpp"
+#include "config_options.hpp"
+#include "pipeline/geometry_refine.hpp"
 #include "difftrans/io/contact_sheet.hpp"
 #include "difftrans/io/mesh_file.hpp"
 #include "difftrans/io/png.hpp"
 #include "difftrans/metrics/chamfer.hpp"
-#include "difftrans/render/background.hpp"
 
 namespace difftrans::cli {
 namespace {
@@ -90,35 +90,19 @@ io::Json geometry_record(const std::vector<float>& pos, const std::vector<std::i
 
 }  // namespace
 
-void add_geometry_options(CLI::App* cmd, GeometryStageOptions& opt) {
-  cmd->add_option("--grid", opt.grid, "Geometry: FlexiCubes resolution (cubes per axis)")->capture_default_str();
-  cmd->add_option("--iterations", opt.iterations, "Geometry: FlexiCubes iterations")->capture_default_str();
-  cmd->add_option("--batch", opt.views_per_iteration, "Geometry: training views per FlexiCubes iteration")->capture_default_str();
-  cmd->add_option("--refine-iterations", opt.refine_iterations, "Geometry: large-steps iterations after remeshing")
-      ->capture_default_str();
-  cmd->add_option("--refine-batch", opt.refine_views, "Geometry: training views per refinement iteration")->capture_default_str();
-  cmd->add_option("--lr", opt.lr, "Geometry: FlexiCubes learning rate lr0 (decays as lr0 10^(-d i), d = --lr-decay)")->capture_default_str();
-  cmd->add_option("--lr-decay", opt.lr_decay, "Geometry: d in lr0 10^(-d i)")->capture_default_str();
+void add_geometry_options(CLI::App* cmd, GeometryOptions& opt) {
+  add_config_options(cmd, opt.config, "Geometry: ");
   cmd->add_option("--schedule", opt.schedule,
                   "Geometry: MASK_ONLY,PERIOD,DEVELOPABILITY_START iterations (default: 10 %, 5 %, 80 % of --iterations, "
                   "the paper's 100,50,800 for 1000)");
-  cmd->add_option("--adam-eps", opt.adam_eps, "Geometry: Adam's epsilon for the FlexiCubes unknowns")->capture_default_str();
-  cmd->add_option("--weights", opt.weights,
-                  "Geometry: loss weights NAME=VALUE,... (mask, dilation, smoothness, bce, area, dev, developability, weight_l1)");
-  cmd->add_option("--box-margin", opt.margin, "Geometry: margin around the unit box when scene.json has no aabb")
-      ->capture_default_str();
-  cmd->add_option("--smoothness", opt.smoothness, "Geometry: smoothness term of the FlexiCubes phase: screen, edge or none")
-      ->capture_default_str();
-  cmd->add_option("--init", opt.init, "Geometry: initial SDF: hull (visual hull of the masks) or sphere (the paper's)")
-      ->capture_default_str();
-  cmd->add_option("--carve-margin", opt.carve_margin,
-                  "Geometry: keep outside every grid vertex a view sees on background farther than this many pixels "
-                  "from the mask (-1: no carving)")
-      ->capture_default_str();
-  cmd->add_option("--metric-samples", opt.metric_samples, "Geometry: points per mesh for CD / F1")->capture_default_str();
+  std::string names;
+  pipeline::Stage1Weights::fields(opt.config.weights, [&](const pipeline::Field& f, float&) {
+    names += (names.empty() ? "" : ", ") + std::string(f.key);
+  });
+  cmd->add_option("--weights", opt.weights, "Geometry: loss weights NAME=VALUE,... (" + names + ")");
 }
 
-io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out, const GeometryStageOptions& opt,
+io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out, const GeometryOptions& opt,
                         const RunOptions& run) {
   const auto t_start = clock_type::now();
   namespace fs = std::filesystem;
@@ -139,43 +123,26 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
   }
   if (views.empty()) throw std::runtime_error("geometry: no training frame has a mask");
 
-  pipeline::Stage1Config cfg;
-  cfg.grid_resolution = opt.grid;
-  cfg.iterations = opt.iterations;
-  cfg.views_per_iteration = opt.views_per_iteration;
-  cfg.refine_iterations = opt.refine_iterations;
-  cfg.refine_views_per_iteration = opt.refine_views;
-  cfg.lr = opt.lr;
-  cfg.adam_eps = opt.adam_eps;
-  cfg.carve_margin = opt.carve_margin;
-  {
-    std::stringstream ss(opt.weights);
-    for (std::string item; std::getline(ss, item, ',');) {
-      if (item.empty()) continue;
-      const auto eq = item.find('=');
-      const std::string name = item.substr(0, eq);
-      float* w = name == "mask"             ? &cfg.weights.mask
-                 : name == "dilation"       ? &cfg.weights.dilation
-                 : name == "smoothness"     ? &cfg.weights.smoothness
-                 : name == "bce"            ? &cfg.weights.bce
-                 : name == "area"           ? &cfg.weights.area
-                 : name == "dev"            ? &cfg.weights.dev
-                 : name == "developability" ? &cfg.weights.developability
-                 : name == "weight_l1"      ? &cfg.weights.weight_l1
-                                            : nullptr;
-      if (!w || eq == std::string::npos) throw std::runtime_error("--weights: '" + item + "' is not NAME=VALUE with a known NAME");
-      try {
-        *w = std::stof(item.substr(eq + 1));
-      } catch (const std::exception&) {
-        throw std::runtime_error("--weights: '" + item + "' has no number after '='");
-      }
+  pipeline::Stage1Config cfg = opt.config;
+  std::stringstream weights(opt.weights);  // --weights NAME=VALUE,...
+  for (std::string item; std::getline(weights, item, ',');) {
+    if (item.empty()) continue;
+    const auto eq = item.find('=');
+    float* w = nullptr;
+    pipeline::Stage1Weights::fields(cfg.weights, [&](const pipeline::Field& f, float& value) {
+      if (item.compare(0, eq, f.key) == 0 && std::string(f.key).size() == eq) w = &value;
+    });
+    if (!w || eq == std::string::npos) throw std::runtime_error("--weights: '" + item + "' is not NAME=VALUE with a known NAME");
+    try {
+      *w = std::stof(item.substr(eq + 1));
+    } catch (const std::exception&) {
+      throw std::runtime_error("--weights: '" + item + "' has no number after '='");
     }
   }
   // the schedule scales with the iteration count (the paper's: 1000 = 100 mask + 50-periods, developability from 800)
-  cfg.mask_only_iterations = std::max(1, opt.iterations / 10);
-  cfg.alternate_period = std::max(1, opt.iterations / 20);
-  cfg.developability_start = opt.iterations * 8 / 10;
-  cfg.lr_decay = opt.lr_decay;
+  cfg.mask_only_iterations = std::max(1, cfg.iterations / 10);
+  cfg.alternate_period = std::max(1, cfg.iterations / 20);
+  cfg.developability_start = cfg.iterations * 8 / 10;
   if (!opt.schedule.empty()) {  // MASK_ONLY,PERIOD,DEVELOPABILITY_START
     std::stringstream ss(opt.schedule);
     std::vector<int> v;
@@ -195,17 +162,6 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
     cfg.alternate_period = v[1];
     cfg.developability_start = v[2];
   }
-  if (opt.smoothness == "screen") {
-    cfg.smoothness = pipeline::Stage1Smoothness::screen_space;
-  } else if (opt.smoothness == "edge") {
-    cfg.smoothness = pipeline::Stage1Smoothness::edge_normal;
-  } else if (opt.smoothness == "none") {
-    cfg.smoothness = pipeline::Stage1Smoothness::none;
-  } else {
-    throw std::runtime_error("--smoothness: '" + opt.smoothness + "' is not one of screen, edge, none");
-  }
-  if (opt.init != "hull" && opt.init != "sphere")
-    throw std::runtime_error("--init: '" + opt.init + "' is not one of hull, sphere");
   if (scene.settings.aabb && !scene.settings.aabb->empty()) {
     // a cube around scene.json's box: FlexiCubes cells stay cubes, so the
     // learning rate (in world units) means the same number of cells on every
@@ -216,26 +172,14 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
     cfg.box_lo = c - Vec3f(half);
     cfg.box_hi = c + Vec3f(half);
   } else {
-    pipeline::stage1_unit_box(cfg, opt.margin);
+    pipeline::stage1_unit_box(cfg, cfg.box_margin);
   }
 
   const fs::path raw_path = out / "mesh_stage1_raw.obj", final_path = out / "mesh_stage1.obj",
                  ckpt_path = out / "checkpoint_stage1.bin";
   io::Json j;
-  j["grid"] = cfg.grid_resolution;
-  j["box"] = {{cfg.box_lo.x, cfg.box_lo.y, cfg.box_lo.z}, {cfg.box_hi.x, cfg.box_hi.y, cfg.box_hi.z}};
+  pipeline::write_fields(cfg, j["settings"]);
   j["training_views"] = views.size();
-  j["iterations"] = cfg.iterations;
-  j["views_per_iteration"] = cfg.views_per_iteration;
-  j["smoothness"] = opt.smoothness;
-  j["init"] = opt.init;
-  j["carve_margin"] = cfg.carve_margin;
-  j["adam_eps"] = cfg.adam_eps;
-  j["schedule"] = {{"mask_only", cfg.mask_only_iterations}, {"period", cfg.alternate_period},
-                   {"developability_start", cfg.developability_start}, {"lr", cfg.lr}, {"lr_decay", cfg.lr_decay}};
-  j["weights"] = {{"mask", cfg.weights.mask},           {"dilation", cfg.weights.dilation}, {"smoothness", cfg.weights.smoothness},
-                  {"bce", cfg.weights.bce},             {"area", cfg.weights.area},         {"dev", cfg.weights.dev},
-                  {"developability", cfg.weights.developability}, {"weight_l1", cfg.weights.weight_l1}};
 
   // ---- FlexiCubes (or the finished raw mesh)
   std::vector<float> raw_pos;
@@ -257,7 +201,7 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
       else
         warn("geometry: " + ckpt_path.string() + " is for another grid or unreadable; starting afresh");
     }
-    if (!resumed && opt.init == "hull") fc.init_visual_hull(views);
+    if (!resumed && cfg.init == pipeline::Stage1Init::hull) fc.init_visual_hull(views);
     fc.set_carving(views);
     j["carved_grid_vertices"] = fc.carved_vertices();
     j["resumed_at"] = fc.iteration();
@@ -361,7 +305,7 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
   j["final"]["mask_l1_train"] = pipeline::stage1_mask_error(pos, tris, views);
 
   // ---- pictures
-  write_silhouette_strip(out / "stage1_silhouettes.png", views, pos, tris, opt.sheet_views);
+  write_silhouette_strip(out / "stage1_silhouettes.png", views, pos, tris, cfg.sheet_views);
   if (!fc_loss.empty() || !ref_loss.empty())
     write_loss_svg(out / "stage1_loss.svg",
                    {{"FlexiCubes total", fc_loss}, {"FlexiCubes mask L1", fc_mask}, {"refinement (mask + edge)", ref_loss}});
@@ -370,7 +314,7 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
   if (!scene.gt.mesh.empty() && fs::exists(scene.gt.mesh)) {
     const io::Mesh gt = io::read_mesh(scene.gt.mesh);
     metrics::GeometryOptions go;
-    go.samples = opt.metric_samples;
+    go.samples = std::size_t(cfg.metric_samples);
     const auto raw_m = metrics::evaluate_geometry(to_io_mesh(raw_pos, raw_tris), gt, go);
     const auto fin_m = metrics::evaluate_geometry(to_io_mesh(pos, tris), gt, go);
     const std::vector<std::int32_t> gt_tris = [&] {

@@ -19,41 +19,21 @@
 #include "difftrans/io/radiance_field.hpp"
 #include "difftrans/metrics/chamfer.hpp"
 #include "difftrans/metrics/ior.hpp"
-#include "difftrans/render/background.hpp"
+#include "config_options.hpp"
 #include "pipeline/materials.hpp"
 
 namespace difftrans::cli {
 
-void add_materials_options(CLI::App* cmd, MaterialsStageOptions& opt) {
-  cmd->add_option("--materials-iterations", opt.iterations, "Materials: iterations")->capture_default_str();
-  cmd->add_option("--materials-rays", opt.rays, "Materials: training rays (object pixels) per iteration")->capture_default_str();
-  cmd->add_option("--materials-freeze", opt.freeze,
-                  "Materials: warm-up iterations (IoR at lr 1e-4, geometry frozen) before the joint phase")
-      ->capture_default_str();
-  cmd->add_option("--materials-lr-ior", opt.lr_ior, "Materials: IoR learning rate after the warm-up")->capture_default_str();
-  cmd->add_option("--materials-lr-absorption", opt.lr_absorption, "Materials: absorption learning rate (raw parameters)")
-      ->capture_default_str();
-  cmd->add_flag("--materials-geometry", opt.geometry,
-                "Materials: also move the vertices (large steps, per-ray clipped gradients) after the warm-up (experimental: on spot-clear it doubled the CD, see README)");
-  cmd->add_option("--ior-init", opt.ior_init, "Materials: starting IoR")->capture_default_str();
-  cmd->add_option("--materials-lr-vertices", opt.lr_vertices, "Materials: vertex learning rate (with --materials-geometry)")
-      ->capture_default_str();
-  cmd->add_option("--materials-lambda", opt.lambda, "Materials: large-steps lambda (with --materials-geometry)")
-      ->capture_default_str();
-  cmd->add_option("--materials-tone", opt.tone, "Materials: weight of the tone loss (1 - cos(rendered, photo))^2")
-      ->capture_default_str();
-  cmd->add_option("--absorption-res", opt.absorption_res, "Materials: absorption grid vertices per axis")->capture_default_str();
-  cmd->add_option("--materials-mesh", opt.mesh, "Materials: mesh to start from (default: DIR/mesh_stage1.obj)");
-  cmd->add_option("--test-spp-axis", opt.test_spp_axis, "Materials: n x n samples per pixel of the test renders")
-      ->capture_default_str();
+void add_materials_options(CLI::App* cmd, pipeline::Stage2Config& config) {
+  add_config_options(cmd, config, "Materials: ");
 }
 
-io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& out, const MaterialsStageOptions& opt,
+io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& out, const pipeline::Stage2Config& config,
                          const RunOptions& run) {
   namespace fs = std::filesystem;
   using clock = std::chrono::steady_clock;
   const auto t_start = clock::now();
-  const fs::path mesh_path = opt.mesh.empty() ? out / "mesh_stage1.obj" : fs::path(opt.mesh);
+  const fs::path mesh_path = config.mesh.empty() ? out / "mesh_stage1.obj" : fs::path(config.mesh);
   if (!fs::exists(mesh_path))
     throw std::runtime_error(mesh_path.string() + ": the stage-1 mesh is missing; run --stages geometry first "
                              "(or give --materials-mesh)");
@@ -104,18 +84,7 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
   }
   if (views.empty()) throw std::runtime_error("materials: no training frame has an image and a mask");
 
-  pipeline::Stage2Config cfg;
-  cfg.iterations = opt.iterations;
-  cfg.rays_per_iteration = opt.rays;
-  cfg.freeze_geometry = opt.freeze;
-  cfg.optimize_positions = opt.geometry;
-  cfg.ior_init = opt.ior_init;
-  cfg.lr_ior = opt.lr_ior;
-  cfg.lr_absorption = opt.lr_absorption;
-  cfg.weights.tone = opt.tone;
-  cfg.lr_positions = opt.lr_vertices;
-  cfg.lambda = opt.lambda;
-  cfg.absorption_res = Vec3i(std::max(2, opt.absorption_res));
+  pipeline::Stage2Config cfg = config;
   {  // the absorption grid spans the mesh's box, a little grown
     Vec3f lo(1e30f), hi(-1e30f);
     for (const Vec3f& p : mesh.positions) lo = glm::min(lo, p), hi = glm::max(hi, p);
@@ -123,30 +92,19 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
     cfg.box_lo = lo - pad;
     cfg.box_hi = hi + pad;
   }
-  j["iterations"] = cfg.iterations;
-  j["rays_per_iteration"] = cfg.rays_per_iteration;
-  j["geometry_optimized"] = cfg.optimize_positions;
-  j["absorption_res"] = cfg.absorption_res.x;
+  pipeline::write_fields(cfg, j["settings"]);
   j["training_views"] = views.size();
-  j["training_depth"] = cfg.trace.max_depth;
-  j["lr_ior"] = cfg.lr_ior;
-  j["lr_absorption"] = cfg.lr_absorption;
-  j["tone_weight"] = cfg.weights.tone;
-  if (cfg.optimize_positions) {
-    j["lr_vertices"] = cfg.lr_positions;
-    j["lambda"] = cfg.lambda;
-  }
 
   progress("materials: " + std::to_string(cfg.iterations) + " iterations over " + std::to_string(views.size()) +
            " views, " + std::to_string(cfg.rays_per_iteration) + " rays each, IoR from " + fixed(cfg.ior_init, 3) +
-           ", absorption grid " + std::to_string(cfg.absorption_res.x) + "^3" +
+           ", absorption grid " + std::to_string(cfg.absorption_res) + "^3" +
            (cfg.optimize_positions ? ", vertices after " + std::to_string(cfg.freeze_geometry) : std::string()));
   pipeline::Stage2 stage(s, views, mask_views, cfg);
   // checkpoints: the settings above, the seed and the inputs name the run
   const fs::path ckpt_path = out / "checkpoint_stage2.bin";
   // (not the iteration count: a finished or stopped fit can be continued for more iterations)
-  io::Json settings = j;
-  settings.erase("iterations");
+  io::Json settings = j["settings"];
+  for (const char* key : {"iterations", "test_spp_axis", "mesh"}) settings.erase(key);
   const std::string run_name = settings.dump() + " seed " + std::to_string(cfg.seed) + " " + inputs;
   if (!run.restart && fs::exists(ckpt_path)) {
     if (stage.load(ckpt_path, run_name))
@@ -211,7 +169,7 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
   std::vector<View> test_views;
   for (const io::Frame& f : test.frames)
     if (!f.environment_only) test_views.push_back(view_from_frame(f));
-  const render::PassOptions ref = render::reference_pass_options(8, opt.test_spp_axis);
+  const render::PassOptions ref = render::reference_pass_options(8, cfg.test_spp_axis);
   const auto renders = render_views(s, test_views, ref, out / "stage2_test", false, "materials: test views");
   j["test"] = compare_with_truth(renders, nullptr, out / "stage2_test");
   j["test_split"] = scene.test.frames.empty() ? "train (no test split)" : "test";

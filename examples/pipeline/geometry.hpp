@@ -1,11 +1,15 @@
 // Stage 1 of DiffTrans: the object's shape from its masks alone. A FlexiCubes
 // grid is optimized against anti-aliased silhouettes (mask L1) with the
 // regularizers and the three-phase schedule of the paper; the extracted mesh
-// is then remeshed (Botsch–Kobbelt) and refined with the large-steps optimizer
-// on mask L1 + edge-normal smoothness.
+// is then remeshed and refined (geometry_refine.hpp).
+//
+// Length: the FlexiCubes fit is one class (Stage1FlexiCubes) whose schedule,
+// tape growth, visual-hull start, carving and checkpoint all read and write
+// the same grid state; split apart, each piece would reach into the others.
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -33,6 +37,7 @@
 #include "difftrans/render/silhouette.hpp"
 #include "difftrans/scene/camera.hpp"
 #include "difftrans/scene/mesh.hpp"
+#include "pipeline/config.hpp"
 
 namespace difftrans::pipeline {
 
@@ -51,6 +56,18 @@ struct Stage1View {
 // paper (|∇d| + |∇n| + |∇²n| over the rendered depth / normal maps) or, where
 // that is too slow, edge-normal smoothness (1 − n_i·n_j)² on the mesh.
 enum class Stage1Smoothness : int { screen_space, edge_normal, none };
+inline const std::array<const char*, 3>& enum_names(Stage1Smoothness) {
+  static const std::array<const char*, 3> names{"screen", "edge", "none"};
+  return names;
+}
+
+// The SDF the FlexiCubes grid starts from: the visual hull of the masks, or
+// the paper's sphere.
+enum class Stage1Init : int { hull, sphere };
+inline const std::array<const char*, 2>& enum_names(Stage1Init) {
+  static const std::array<const char*, 2> names{"hull", "sphere"};
+  return names;
+}
 
 // Loss weights. The mask L1 is the mean over a view's pixels, averaged over
 // the views of a batch; every other term as its function in difftrans/losses/
@@ -64,12 +81,26 @@ struct Stage1Weights {
   float dev = 0.1f;              // FlexiCubes' L_dev
   float developability = 0.01f;  // Stein et al. 2018, late only
   float weight_l1 = 1e-3f;       // L1 on the raw FlexiCubes weights (tape-free)
+
+  template <class Self, class Visit>
+  static void fields(Self& w, Visit&& v) {
+    v(Field{"mask", "", "mask L1"}, w.mask);
+    v(Field{"dilation", "", "SDF dilation"}, w.dilation);
+    v(Field{"smoothness", "", "screen-space or edge-normal smoothness"}, w.smoothness);
+    v(Field{"bce", "", "BCE on sign-changing grid edges"}, w.bce);
+    v(Field{"area", "", "mean face area"}, w.area);
+    v(Field{"dev", "", "FlexiCubes' L_dev"}, w.dev);
+    v(Field{"developability", "", "developability"}, w.developability);
+    v(Field{"weight_l1", "", "L1 on the FlexiCubes weights"}, w.weight_l1);
+  }
 };
 
 struct Stage1Config {
   // grid
   int grid_resolution = 64;     // cubes per axis (32 in tests)
   Vec3f box_lo{-0.6f}, box_hi{0.6f};  // the object's box: scene.json's aabb, or the unit box with a margin
+  float box_margin = 0.1f;      // the margin around the unit box when the scene gives no box (stage1_unit_box)
+  Stage1Init init = Stage1Init::hull;
   float init_radius = 0.0f;     // initial sphere's radius; <= 0: 0.35 of the box's smallest side
   // schedule (the paper: 1000 iterations, mask only for 100, then dilation /
   // smoothness alternating every 50, developability late)
@@ -106,6 +137,50 @@ struct Stage1Config {
   float refine_lr = 3e-3f;          // AdamUniform on u = (I + λL) x
   double refine_lambda = 19.0;
   float refine_edge_normal = 1e-3f;  // weight of Σ (1 − n_i·n_j)² (mean over interior edges)
+  // evaluation and pictures
+  std::uint64_t metric_samples = 200000;  // points per mesh for CD / F1
+  int sheet_views = 4;                    // rows of the silhouette comparison strip
+
+  // The one list of settings (pipeline/config.hpp): options, record, log.
+  template <class Self, class Visit>
+  static void fields(Self& c, Visit&& v) {
+    constexpr double big = 1e9;
+    v(Field{"grid", "--grid", "FlexiCubes resolution (cubes per axis)", 2, 1024}, c.grid_resolution);
+    v(Field{"box_lo", "", "the grid's box, low corner"}, c.box_lo);
+    v(Field{"box_hi", "", "the grid's box, high corner"}, c.box_hi);
+    v(Field{"box_margin", "--box-margin", "margin around the unit box when scene.json has no aabb", 0, 100}, c.box_margin);
+    v(Field{"init", "--init", "initial SDF: hull (visual hull of the masks) or sphere (the paper's)"}, c.init);
+    v(Field{"init_radius", "", "initial sphere's radius (<= 0: 0.35 of the box)"}, c.init_radius);
+    v(Field{"iterations", "--iterations", "FlexiCubes iterations", 0, big}, c.iterations);
+    v(Field{"mask_only", "", "iterations with the mask term alone (--schedule)"}, c.mask_only_iterations);
+    v(Field{"period", "", "iterations per dilation / smoothness phase (--schedule)"}, c.alternate_period);
+    v(Field{"developability_start", "", "first iteration of the developability term (--schedule)"},
+      c.developability_start);
+    v(Field{"lr", "--lr", "FlexiCubes learning rate lr0 (decays as lr0 10^(-d i), d = --lr-decay)", 0, 1e3}, c.lr);
+    v(Field{"lr_decay", "--lr-decay", "d in lr0 10^(-d i)", 0, 1}, c.lr_decay);
+    v(Field{"adam_eps", "--adam-eps", "Adam's epsilon for the FlexiCubes unknowns", 0, 1e3}, c.adam_eps);
+    v(Field{"views_per_iteration", "--batch", "training views per FlexiCubes iteration", 1, big}, c.views_per_iteration);
+    v(Field{"smoothness", "--smoothness", "smoothness term of the FlexiCubes phase: screen, edge or none"}, c.smoothness);
+    v(Field{"dilation_band", "", "cells around a sign change the dilation acts on (0: all)"}, c.dilation_band);
+    v(Field{"carve_margin", "--carve-margin",
+            "keep outside every grid vertex a view sees on background farther than this many pixels from the mask "
+            "(-1: no carving)",
+            -1, 1000},
+      c.carve_margin);
+    v(Field{"weights", "", "loss weights (--weights NAME=VALUE,...)"}, c.weights);
+    v(Field{"seed", "", "seed of the view batches"}, c.seed);
+    v(Field{"remesh_edge_length", "", "target edge length of the remeshing (<= 0: one grid cell)"}, c.remesh_edge_length);
+    v(Field{"remesh_iterations", "", "remeshing iterations"}, c.remesh_iterations);
+    v(Field{"refine_iterations", "--refine-iterations", "large-steps iterations after remeshing", 0, big},
+      c.refine_iterations);
+    v(Field{"refine_views_per_iteration", "--refine-batch", "training views per refinement iteration", 1, big},
+      c.refine_views_per_iteration);
+    v(Field{"refine_lr", "", "refinement learning rate"}, c.refine_lr);
+    v(Field{"refine_lambda", "", "large-steps lambda of the refinement"}, c.refine_lambda);
+    v(Field{"refine_edge_normal", "", "weight of the edge-normal term in the refinement"}, c.refine_edge_normal);
+    v(Field{"metric_samples", "--metric-samples", "points per mesh for CD / F1", 1, big}, c.metric_samples);
+    v(Field{"sheet_views", "", "rows of the silhouette comparison strip"}, c.sheet_views);
+  }
 };
 
 // The unit box [-1/2, 1/2]³ of docs/conventions.md's normalized objects, grown by `margin` on every side.
@@ -407,8 +482,13 @@ class Stage1FlexiCubes {
       for (std::size_t v = 0; v < mesh.vertices.size(); ++v)
         for (int c = 0; c < 3; ++c) pos[3 * v + std::size_t(c)] = mesh.vertices[v][c].value;
       std::vector<float> gpos(pos.size(), 0.0f);
-      std::vector<V> terms;
-      std::vector<float> term_weights;
+      // the terms recorded on the tape: value, weight, and where the record keeps the value
+      struct TapeTerm {
+        V value;
+        float weight;
+        double Stage1Stats::*record;
+      };
+      std::vector<TapeTerm> terms;
       if (!mesh.triangles.empty()) {
         const scene::TriangleMesh fm(pos, mesh.triangles);
         const geometry::TriangleNeighbors nb = geometry::TriangleNeighbors::build(fm);
@@ -431,29 +511,18 @@ class Stage1FlexiCubes {
 
         // regularizers recorded on the same tape
         if (!mask_only) {
-          if (w.bce != 0.0f) {
-            terms.push_back(sdf_sign_change_bce_loss<V>(grid_, in.sdf, reader));
-            term_weights.push_back(w.bce);
-          }
-          if (w.area != 0.0f) {
-            terms.push_back(mean_face_area(mesh.vertices, mesh.triangles));
-            term_weights.push_back(w.area);
-          }
-          if (w.dev != 0.0f) {
-            terms.push_back(flexicubes_dev_loss<V>(grid_, in, reader, mesh, fo));
-            term_weights.push_back(w.dev);
-          }
+          if (w.bce != 0.0f) terms.push_back({sdf_sign_change_bce_loss<V>(grid_, in.sdf, reader), w.bce, &Stage1Stats::bce});
+          if (w.area != 0.0f) terms.push_back({mean_face_area(mesh.vertices, mesh.triangles), w.area, &Stage1Stats::area});
+          if (w.dev != 0.0f) terms.push_back({flexicubes_dev_loss<V>(grid_, in, reader, mesh, fo), w.dev, &Stage1Stats::dev});
           const bool edge_smooth = smooth_phase && config_.smoothness == Stage1Smoothness::edge_normal;
           if (edge_smooth || (late && w.developability != 0.0f)) {
             const MeshAdjacency adjm = mesh_adjacency(mesh.triangles, std::int32_t(mesh.vertices.size()));
-            if (edge_smooth) {
-              terms.push_back(edge_normal_loss(mesh.vertices, mesh.triangles, adjm, Reduction::mean));
-              term_weights.push_back(w.smoothness);
-            }
-            if (late && w.developability != 0.0f) {
-              terms.push_back(developability_loss(mesh.vertices, mesh.triangles, adjm));
-              term_weights.push_back(w.developability);
-            }
+            if (edge_smooth)
+              terms.push_back({edge_normal_loss(mesh.vertices, mesh.triangles, adjm, Reduction::mean), w.smoothness,
+                               &Stage1Stats::smoothness});
+            if (late && w.developability != 0.0f)
+              terms.push_back({developability_loss(mesh.vertices, mesh.triangles, adjm), w.developability,
+                               &Stage1Stats::developability});
           }
         }
       }
@@ -478,18 +547,10 @@ class Stage1FlexiCubes {
       tape_->zero_adjoints();
       for (std::size_t v = 0; v < mesh.vertices.size(); ++v)
         for (int c = 0; c < 3; ++c) tape_->seed(mesh.vertices[v][c], gpos[3 * v + std::size_t(c)]);
-      for (std::size_t k = 0; k < terms.size(); ++k) tape_->seed(terms[k], term_weights[k]);
+      for (const TapeTerm& t : terms) tape_->seed(t.value, t.weight);
       tape_->propagate();
       reader.scatter();
-      // values of the terms, for the record
-      std::size_t k = 0;
-      if (!mask_only && !mesh.triangles.empty()) {
-        if (w.bce != 0.0f) st.bce = terms[k++].value;
-        if (w.area != 0.0f) st.area = terms[k++].value;
-        if (w.dev != 0.0f) st.dev = terms[k++].value;
-        if (smooth_phase && config_.smoothness == Stage1Smoothness::edge_normal) st.smoothness = terms[k++].value;
-        if (late && w.developability != 0.0f) st.developability = terms[k++].value;
-      }
+      for (const TapeTerm& t : terms) st.*t.record = t.value.value;  // the values, for the record
       st.backward_seconds = seconds_since(tb);
       break;
     }
@@ -646,128 +707,5 @@ class Stage1FlexiCubes {
   std::vector<ad::LeafRecord> log_;
   std::int32_t log_capacity_ = 1 << 18;
 };
-
-// Mean mask L1 of a float mesh over all the views (0 for no views).
-inline double stage1_mask_error(const std::vector<float>& positions, const std::vector<std::int32_t>& triangles,
-                                const std::vector<Stage1View>& views) {
-  if (views.empty()) return 0.0;
-  const scene::TriangleMesh m(positions, triangles);
-  const geometry::TriangleNeighbors nb = geometry::TriangleNeighbors::build(m);
-  double sum = 0.0;
-  for (const Stage1View& v : views) sum += losses::mask_l1(render::silhouette_mask<float>(m, v.camera, &nb), v.target.data());
-  return sum / double(views.size());
-}
-
-// ------------------------------------------------------------------ refinement
-
-struct Stage1RefineStats {
-  int iteration = 0;
-  double loss = 0.0, mask = 0.0, edge_normal = 0.0;
-  double seconds = 0.0;
-};
-
-struct Stage1RefineResult {
-  std::vector<float> positions;
-  std::vector<std::int32_t> triangles;
-  std::vector<double> loss, mask;  // per refinement iteration
-  float target_length = 0.0f;
-  RemeshStats remesh_stats;
-  bool remeshed = false;           // false when the input was not a manifold the remesher accepts
-  double remesh_seconds = 0.0, refine_seconds = 0.0;
-};
-
-// Mask L1 (a batch of views) + edge-normal smoothness of a float mesh, and
-// the gradient w.r.t. its positions (3 per vertex) written to `grad`.
-inline Stage1RefineStats stage1_refine_loss(const scene::TriangleMesh& m, const geometry::TriangleNeighbors& nb,
-                                            const MeshAdjacency& adj, const std::vector<Stage1View>& views,
-                                            const std::vector<int>& picked, float edge_weight, std::vector<float>& grad) {
-  Stage1RefineStats st;
-  grad.assign(m.positions.size(), 0.0f);
-  const float per_view = 1.0f / float(std::max<std::size_t>(1, picked.size()));
-  for (int vi : picked) {
-    const Stage1View& view = views[std::size_t(vi)];
-    const render::SilhouetteFrame f = render::prepare_silhouette(m, nb, view.camera);
-    const std::vector<float> mask = render::antialiased_mask<float>(f, m, view.camera);
-    std::vector<float> adjoint(mask.size());
-    st.mask += losses::mask_l1(mask, view.target.data(), adjoint.data()) * per_view;
-    for (float& a : adjoint) a *= per_view;
-    render::silhouette_backward(f, m, view.camera, adjoint.data(), grad.data());
-  }
-  if (edge_weight != 0.0f) {
-    using V = ad::Var<float>;
-    const std::int32_t nv = m.num_vertices();
-    ad::Tape<float> tape(std::int32_t(std::min<std::int64_t>(1ll << 30, 64 * std::int64_t(m.num_triangles()) + 16 * nv + 1024)));
-    std::vector<Vec3<V>> x(static_cast<std::size_t>(nv));
-    for (std::int32_t v = 0; v < nv; ++v)
-      for (int c = 0; c < 3; ++c) x[std::size_t(v)][c] = tape.variable(m.positions[std::size_t(3 * v + c)]);
-    const V e = edge_normal_loss(x, m.triangles, adj, Reduction::mean);
-    if (!tape.overflowed()) {
-      tape.backward(e);
-      for (std::int32_t v = 0; v < nv; ++v)
-        for (int c = 0; c < 3; ++c) grad[std::size_t(3 * v + c)] += edge_weight * tape.adjoint(x[std::size_t(v)][c]);
-      st.edge_normal = e.value;
-    }
-  }
-  st.loss = st.mask + edge_weight * st.edge_normal;
-  return st;
-}
-
-// Remesh to the target edge length, then refine the vertex positions with the
-// large-steps optimizer (u = (I + λL) x, AdamUniform on u) for
-// config.refine_iterations iterations. `on_step` (optional) sees each iteration.
-inline Stage1RefineResult stage1_refine(const std::vector<float>& positions, const std::vector<std::int32_t>& triangles,
-                                        const std::vector<Stage1View>& views, const Stage1Config& config,
-                                        const std::function<void(const Stage1RefineStats&)>& on_step = {}) {
-  using clock = std::chrono::steady_clock;
-  Stage1RefineResult out;
-  const auto t0 = clock::now();
-  RemeshOptions ro;
-  const Vec3f size = config.box_hi - config.box_lo;
-  ro.target_length = config.remesh_edge_length > 0.0f
-                         ? config.remesh_edge_length
-                         : std::max(size.x, std::max(size.y, size.z)) / float(std::max(2, config.grid_resolution));
-  ro.iterations = config.remesh_iterations;
-  RemeshResult rr = remesh(positions, triangles, ro);
-  out.target_length = ro.target_length;
-  if (rr.report.ok() && !rr.triangles.empty()) {
-    out.positions = std::move(rr.positions);
-    out.triangles = std::move(rr.triangles);
-    out.remesh_stats = rr.stats;
-    out.remeshed = true;
-  } else {
-    out.positions = positions;
-    out.triangles = triangles;
-  }
-  out.remesh_seconds = std::chrono::duration<double>(clock::now() - t0).count();
-  if (out.triangles.empty() || config.refine_iterations <= 0 || views.empty()) return out;
-
-  const auto t1 = clock::now();
-  scene::TriangleMesh m(out.positions, out.triangles);
-  const geometry::TriangleNeighbors nb = geometry::TriangleNeighbors::build(m);
-  const MeshAdjacency adj = mesh_adjacency(m.triangles, m.num_vertices());
-  optim::AdamOptions ao;
-  ao.lr = config.refine_lr;
-  optim::LargeStepsOptimizer opt(config.refine_lambda, ao);
-  opt.reset(m.positions, m.triangles);
-  std::vector<float> grad;
-  for (int it = 0; it < config.refine_iterations; ++it) {
-    const auto ts = clock::now();
-    std::vector<int> all(views.size());
-    std::iota(all.begin(), all.end(), 0);
-    std::mt19937_64 rng(config.seed * 0xD1B54A32D192ED03ull + std::uint64_t(it));
-    std::shuffle(all.begin(), all.end(), rng);
-    all.resize(std::min<std::size_t>(all.size(), std::size_t(std::max(1, config.refine_views_per_iteration))));
-    Stage1RefineStats st = stage1_refine_loss(m, nb, adj, views, all, config.refine_edge_normal, grad);
-    opt.step(m.positions, grad, config.refine_lr);
-    st.iteration = it;
-    st.seconds = std::chrono::duration<double>(clock::now() - ts).count();
-    out.loss.push_back(st.loss);
-    out.mask.push_back(st.mask);
-    if (on_step) on_step(st);
-  }
-  out.positions = m.positions;
-  out.refine_seconds = std::chrono::duration<double>(clock::now() - t1).count();
-  return out;
-}
 
 }  // namespace difftrans::pipeline

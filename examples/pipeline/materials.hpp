@@ -30,7 +30,8 @@
 #include "difftrans/render/host_scene.hpp"
 #include "difftrans/render/ray_batch.hpp"
 #include "difftrans/scene/absorption.hpp"
-#include "pipeline/geometry.hpp"
+#include "pipeline/config.hpp"
+#include "pipeline/geometry_refine.hpp"
 
 namespace difftrans::pipeline {
 
@@ -51,6 +52,16 @@ struct Stage2Weights {
   float volume = 1e-4f;       // absorption L2
   float mask = 1.0f;          // mask L1 of the mesh (every mask_every iterations, once geometry moves)
   float edge_normal = 1e-3f;  // with the mask term
+
+  template <class Self, class Visit>
+  static void fields(Self& w, Visit&& v) {
+    v(Field{"color", "", "colour L2"}, w.color);
+    v(Field{"tone", "--materials-tone", "weight of the tone loss (1 - cos(rendered, photo))^2", 0, 1e6}, w.tone);
+    v(Field{"smoothness", "", "absorption TV"}, w.smoothness);
+    v(Field{"volume", "", "absorption L2"}, w.volume);
+    v(Field{"mask", "", "mask L1 of the mesh"}, w.mask);
+    v(Field{"edge_normal", "", "edge-normal term with the mask term"}, w.edge_normal);
+  }
 };
 
 struct Stage2Config {
@@ -65,7 +76,7 @@ struct Stage2Config {
   int mask_views = 4;
   // learning rates (Adam; positions: AdamUniform on u = (I + λL) x), decayed as lr·10^(−decay·i)
   float lr_ior_frozen = 1e-4f;    // the first freeze_geometry iterations
-  float lr_ior = 1e-3f;           // afterwards
+  float lr_ior = 3e-3f;           // afterwards
   float lr_absorption = 2e-2f;    // on the raw (softplus) parameters
   float lr_positions = 1e-3f;
   float lr_decay = 2e-4f;
@@ -73,8 +84,9 @@ struct Stage2Config {
   // unknowns
   float ior_init = 1.5f;
   float ior_min = 1.0f, ior_max = 3.0f;
-  bool optimize_ior = true, optimize_absorption = true, optimize_positions = true;
-  Vec3i absorption_res{16, 16, 16};  // grid vertices per axis
+  bool optimize_ior = true, optimize_absorption = true;
+  bool optimize_positions = false;  // move the vertices too (experimental: see the note on the class)
+  int absorption_res = 16;          // grid vertices per axis
   Vec3f box_lo{-0.55f}, box_hi{0.55f};
   float sigma_init = 0.05f;
   // training tracer (issue 3's speed-against-error finding: depth 4, pruning, K = 4)
@@ -94,6 +106,54 @@ struct Stage2Config {
   float clip_geometry = 1.0f;
   Stage2Weights weights;
   std::uint64_t seed = 1;
+  // inputs and outputs of the stage
+  std::string mesh;               // the mesh to start from; empty: the stage-1 mesh of the run
+  int test_spp_axis = 2;          // test renders: n x n samples per pixel
+
+  // The one list of settings (pipeline/config.hpp): options, record, log.
+  template <class Self, class Visit>
+  static void fields(Self& c, Visit&& v) {
+    constexpr double big = 1e9;
+    v(Field{"iterations", "--materials-iterations", "iterations", 0, big}, c.iterations);
+    v(Field{"rays_per_iteration", "--materials-rays", "training rays (object pixels) per iteration", 1, big},
+      c.rays_per_iteration);
+    v(Field{"views_per_iteration", "", "training views per iteration"}, c.views_per_iteration);
+    v(Field{"freeze_geometry", "--materials-freeze",
+            "warm-up iterations (IoR at lr 1e-4, geometry frozen) before the joint phase", 0, big},
+      c.freeze_geometry);
+    v(Field{"mask_every", "", "iterations between mask steps on the vertices"}, c.mask_every);
+    v(Field{"mask_views", "", "views per mask step"}, c.mask_views);
+    v(Field{"lr_ior_frozen", "", "IoR learning rate in the warm-up"}, c.lr_ior_frozen);
+    v(Field{"lr_ior", "--materials-lr-ior", "IoR learning rate after the warm-up", 0, 10}, c.lr_ior);
+    v(Field{"lr_absorption", "--materials-lr-absorption", "absorption learning rate (raw parameters)", 0, 10},
+      c.lr_absorption);
+    v(Field{"lr_vertices", "--materials-lr-vertices", "vertex learning rate (with --materials-geometry)", 0, 10},
+      c.lr_positions);
+    v(Field{"lr_decay", "", "d in lr 10^(-d i)"}, c.lr_decay);
+    v(Field{"lambda", "--materials-lambda", "large-steps lambda (with --materials-geometry)", 0, 1e6}, c.lambda);
+    v(Field{"ior_init", "--ior-init", "starting IoR", 1, 3}, c.ior_init);
+    v(Field{"ior_min", "", "smallest IoR"}, c.ior_min);
+    v(Field{"ior_max", "", "largest IoR"}, c.ior_max);
+    v(Field{"optimize_ior", "", "fit the IoR"}, c.optimize_ior);
+    v(Field{"optimize_absorption", "", "fit the absorption grid"}, c.optimize_absorption);
+    v(Field{"geometry_optimized", "--materials-geometry",
+            "move the vertices too (experimental: on spot-clear the mesh gets worse)"},
+      c.optimize_positions);
+    v(Field{"absorption_res", "--absorption-res", "absorption grid vertices per axis", 2, 256}, c.absorption_res);
+    v(Field{"box_lo", "", "the absorption grid's box, low corner"}, c.box_lo);
+    v(Field{"box_hi", "", "the absorption grid's box, high corner"}, c.box_hi);
+    v(Field{"sigma_init", "", "starting absorption coefficient"}, c.sigma_init);
+    v(Field{"training_depth", "", "tracing depth of the training rays"}, c.trace.max_depth);
+    v(Field{"training_prune", "", "throughput below which a training branch is pruned"}, c.trace.prune_throughput);
+    v(Field{"training_samples", "", "samples of the absorption integral per segment"}, c.trace.integration.samples);
+    v(Field{"relative_l2", "", "relative L2 colour loss instead of plain L2"}, c.relative_l2);
+    v(Field{"max_ray_loss", "", "rays with a larger colour loss are skipped"}, c.max_ray_loss);
+    v(Field{"clip_geometry", "", "per-ray clip of the vertex gradient's norm (0: off)"}, c.clip_geometry);
+    v(Field{"weights", "", "loss weights"}, c.weights);
+    v(Field{"seed", "", "seed of the ray batches"}, c.seed);
+    v(Field{"mesh", "--materials-mesh", "mesh to start from (default: DIR/mesh_stage1.obj)"}, c.mesh);
+    v(Field{"test_spp_axis", "--test-spp-axis", "n x n samples per pixel of the test renders", 1, 64}, c.test_spp_axis);
+  }
 };
 
 struct Stage2Stats {
@@ -124,8 +184,8 @@ class Stage2 {
         positions_(config.lambda) {
     if (views_.empty()) throw std::invalid_argument("Stage2: no training views");
     scene_.ior = std::clamp(config_.ior_init, config_.ior_min, config_.ior_max);
-    const std::size_t nv = std::size_t(config_.absorption_res.x) * config_.absorption_res.y * config_.absorption_res.z;
-    scene_.set_grid_absorption(config_.absorption_res, config_.box_lo, config_.box_hi,
+    const std::size_t nv = std::size_t(config_.absorption_res) * config_.absorption_res * config_.absorption_res;
+    scene_.set_grid_absorption(Vec3i(config_.absorption_res), config_.box_lo, config_.box_hi,
                                std::vector<float>(3 * nv, scene::raw_from_sigma(config_.sigma_init)));
     for (bool& d : scene_.differentiate) d = false;
     // the object pixels of every view, once

@@ -4,7 +4,7 @@
 // must be closer to the true shape than the initial sphere, refinement must
 // keep it closed and not worse, checkpoints must resume exactly, and the genus
 // count must be right on known meshes.
-#include "pipeline/geometry.hpp"
+#include "pipeline/geometry_refine.hpp"
 
 #include <doctest/doctest.h>
 

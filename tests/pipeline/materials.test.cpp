@@ -108,7 +108,7 @@ TEST_CASE("stage 2 recovers IoR and absorption on a glass sphere (geometry known
   cfg.freeze_geometry = 100;  // the IoR's slow warm-up (the paper's 1e-4) while the absorption finds its level
   cfg.rays_per_iteration = 2048;
   cfg.optimize_positions = false;
-  cfg.absorption_res = difftrans::Vec3i(4);
+  cfg.absorption_res = 4;
   cfg.box_lo = Vec3f(-0.45f);
   cfg.box_hi = Vec3f(0.45f);
   cfg.lr_ior_frozen = 1e-4f;
@@ -179,6 +179,8 @@ TEST_CASE("stage 2 with geometry: a dented sphere moves towards the truth") {
   cfg.iterations = 120;
   cfg.freeze_geometry = 20;
   cfg.rays_per_iteration = 1024;
+  cfg.optimize_positions = true;
+  cfg.lr_ior = 1e-3f;
   cfg.optimize_ior = false;
   cfg.optimize_absorption = false;
   cfg.lr_positions = 3e-3f;
@@ -222,8 +224,10 @@ TEST_CASE("stage 2 checkpoint: a resumed fit repeats the uninterrupted one, and 
   pipeline::Stage2Config cfg;
   cfg.iterations = 16;
   cfg.freeze_geometry = 6;  // the vertices move from iteration 6: their optimizer's state goes through the file too
+  cfg.optimize_positions = true;
+  cfg.lr_ior = 1e-3f;
   cfg.rays_per_iteration = 256;
-  cfg.absorption_res = difftrans::Vec3i(3);
+  cfg.absorption_res = 3;
   const auto fresh = [] { return glass_sphere(1.3f, Vec3f(0.0f)); };
   const std::filesystem::path file =
       std::filesystem::temp_directory_path() / ("difftrans-stage2-" + std::to_string(::getpid()) + ".bin");
@@ -256,7 +260,7 @@ TEST_CASE("stage 2 checkpoint: a resumed fit repeats the uninterrupted one, and 
   }
   {  // a checkpoint of another grid size is refused
     pipeline::Stage2Config other = cfg;
-    other.absorption_res = difftrans::Vec3i(4);
+    other.absorption_res = 4;
     dr::HostScene d = fresh();
     pipeline::Stage2 third(d, views_of(photos), mask_views_of(photos), other);
     CHECK_FALSE(third.load(file, "run 1"));

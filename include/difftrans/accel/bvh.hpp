@@ -2,6 +2,10 @@
 // DT_HOST_DEVICE function on the host and in CUDA kernels. Answers the same
 // closest-hit query as EmbreeScene (same RayHit, same barycentrics), so the
 // generic tracer takes either; the ray/triangle test is watertight.
+//
+// Length: the builder, the flattened node layout and the traversal depend on
+// each other's invariants (child order, leaf ranges, the watertight test's
+// precomputed shear), so they stay in one file.
 #pragma once
 
 #include <algorithm>

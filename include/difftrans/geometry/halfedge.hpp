@@ -1,5 +1,9 @@
 // Half-edge triangle mesh for remeshing: built from flat arrays with manifold
 // validation; edge split, collapse (link condition), flip; compaction back.
+//
+// Length: the three local operations rewrite the same half-edge records and
+// keep one set of invariants (checked by validate()); they are kept together
+// with them.
 #pragma once
 
 #include <algorithm>

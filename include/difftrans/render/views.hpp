@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "difftrans/io/dataset.hpp"
 #include "difftrans/io/image.hpp"
 #include "difftrans/io/material.hpp"
 #include "difftrans/io/mesh.hpp"
@@ -92,6 +93,12 @@ inline scene::Camera camera_from(const Mat4<double>& camera_to_world, double fx,
                                  int width, int height) {
   return scene::Camera::from_intrinsics(Mat4<float>(camera_to_world), float(fx), float(fy), float(cx), float(cy),
                                         width, height);
+}
+
+// The camera of a frame (pinhole intrinsics, camera-to-world).
+inline scene::Camera camera_of(const io::Frame& f) {
+  const auto& k = f.intrinsics;
+  return camera_from(f.camera_to_world, k.fx, k.fy, k.cx, k.cy, k.width, k.height);
 }
 
 }  // namespace difftrans::render

@@ -1,19 +1,81 @@
-// Background pixels of a scene directory as environment observations: the
-// ray through each pixel centre that the object's mask leaves out (minus a
-// margin around the mask), with the pixel's radiance; and the comparison of
-// a fitted environment with held-out background pixels. The environment is
-// a distant map (EnvMap) or any radiance(origin, direction) (a near field).
+// The environment stage of the pipeline: its configuration, and the
+// background pixels of a scene directory as environment observations (the ray
+// through each pixel centre that the object's mask leaves out, minus a margin
+// around the mask, with the pixel's radiance) and the comparison of a fitted
+// environment with held-out background pixels. The environment is a distant
+// map (EnvMap, scene/envmap_fit.hpp) or any radiance(origin, direction) (a
+// near field, scene/radiance_field_fit.hpp).
 #pragma once
 
+#include <array>
+#include <cstdint>
+#include <string>
 #include <vector>
 
 #include "difftrans/core/parallel.hpp"
 #include "difftrans/io/dataset.hpp"
 #include "difftrans/metrics/image.hpp"
 #include "difftrans/render/views.hpp"
+#include "pipeline/config.hpp"
 #include "difftrans/scene/envmap_fit.hpp"
 
-namespace difftrans::render {
+namespace difftrans::pipeline {
+
+using render::camera_of;
+
+enum class EnvironmentModel : int { automatic, distant, near };
+inline const std::array<const char*, 3>& enum_names(EnvironmentModel) {
+  static const std::array<const char*, 3> names{"auto", "distant", "near"};
+  return names;
+}
+
+struct EnvironmentConfig {
+  EnvironmentModel model = EnvironmentModel::automatic;  // auto: scene.json's "environment", else distant
+  int margin = 2;                 // pixels around the mask left out
+  // distant: equirectangular map
+  int env_width = 0;              // 0: from the images' angular resolution (capped at env_max_width)
+  int env_max_width = 512;
+  double smoothness = 1e-3;
+  // near: radiance field (scene/radiance_field_fit.hpp)
+  std::string field_resolutions = "32,64";      // grid vertices per axis, one level each (a 128 level overfits 50 views)
+  std::string field_iterations = "300,300";     // per level
+  int field_batch = 4096;
+  float field_extent = 1.4f;      // box half-size / the farthest training camera's distance from the object's centre
+  float field_lr = 0.1f;
+  float field_tv = 1e-9f;         // smoothness prior weight (density and colour)
+  float field_sparsity = 1e-6f;   // density sparsity prior weight
+  std::uint64_t field_seed = 1;
+
+  // The one list of settings (pipeline/config.hpp): options, record, log.
+  template <class Self, class Visit>
+  static void fields(Self& c, Visit&& v) {
+    v(Field{"model_requested", "--env-model",
+            "Environment model: auto (scene.json's \"environment\"; distant when absent), distant (equirectangular "
+            "map) or near (radiance field)"},
+      c.model);
+    v(Field{"margin", "--margin", "Pixels around the mask left out of the environment fit", 0, 1000}, c.margin);
+    v(Field{"env_width", "--env-width", "Environment map (or panorama) width (0: from the images' angular resolution)",
+            0, 16384},
+      c.env_width);
+    v(Field{"env_max_width", "--env-max-width", "Largest automatic map width", 16, 16384}, c.env_max_width);
+    v(Field{"env_smoothness", "--env-smoothness", "Weight of the distant map's smoothness prior", 0, 1e6}, c.smoothness);
+    v(Field{"field_resolutions", "--field-resolutions",
+            "Radiance field: grid vertices per axis of each coarse-to-fine level"},
+      c.field_resolutions);
+    v(Field{"field_iterations", "--field-iterations", "Radiance field: iterations per level (one count or one per level)"},
+      c.field_iterations);
+    v(Field{"field_batch", "--field-batch", "Radiance field: rays per iteration", 1, 1 << 24}, c.field_batch);
+    v(Field{"field_extent", "--field-extent",
+            "Radiance field: half-size of its cube / distance of the farthest camera from the object's centre", 1, 100},
+      c.field_extent);
+    v(Field{"field_lr", "--field-lr", "Radiance field: Adam learning rate (decays tenfold over the fit)", 1e-6, 10},
+      c.field_lr);
+    v(Field{"field_tv", "--field-tv", "Radiance field: weight of the smoothness prior on the grid", 0, 1e3}, c.field_tv);
+    v(Field{"field_sparsity", "--field-sparsity", "Radiance field: weight of the density sparsity prior", 0, 1e3},
+      c.field_sparsity);
+    v(Field{"field_seed", "--field-seed", "Radiance field: seed of the ray batches"}, c.field_seed);
+  }
+};
 
 struct BackgroundOptions {
   int margin = 2;  // pixels within this many pixels (Chebyshev) of the mask are left out
@@ -46,12 +108,6 @@ inline io::Mask background_mask(const io::Frame& f, int margin) {
       bg.inside[std::size_t(y) * w + x] = !any;
     }
   return bg;
-}
-
-// The camera of a frame (pinhole intrinsics, camera-to-world).
-inline scene::Camera camera_of(const io::Frame& f) {
-  const auto& k = f.intrinsics;
-  return camera_from(f.camera_to_world, k.fx, k.fy, k.cx, k.cy, k.width, k.height);
 }
 
 // Observations from every frame of a split whose pixels were read. Frames
@@ -143,4 +199,4 @@ inline double background_psnr(const io::Split& split, const scene::EnvMap& env, 
   return background_psnr_with(split, distant_radiance(env), margin);
 }
 
-}  // namespace difftrans::render
+}  // namespace difftrans::pipeline

@@ -14,9 +14,9 @@
 #include <limits>
 #include <vector>
 
-#include "difftrans/render/background.hpp"
+#include "pipeline/environment.hpp"
 
-namespace difftrans::render {
+namespace difftrans::pipeline {
 
 struct ExposureOptions {
   int margin = 2;       // pixels within this many of the mask are left out (as background_mask)
@@ -89,4 +89,4 @@ inline void apply_exposure(io::Split& split, double scale) {
     for (float& v : f.image.rgb) v *= inv;
 }
 
-}  // namespace difftrans::render
+}  // namespace difftrans::pipeline

@@ -3,10 +3,11 @@
 // known environment, fitted back, compared on its background pixels.
 #include "support/ad_check.hpp"
 
-#include "difftrans/render/background.hpp"
+#include "pipeline/environment.hpp"
 
 using namespace dt_test;
 namespace dr = difftrans::render;
+namespace pipeline = difftrans::pipeline;
 namespace sc = difftrans::scene;
 namespace io = difftrans::io;
 
@@ -50,7 +51,7 @@ TEST_CASE("the margin keeps observations away from the mask") {
   const sc::EnvMap env = sc::equirect_environment(texels.data(), 16, 8);
   const io::Frame f = frame_of(env, Vec3f(0, 0, 1), 32, 4);  // mask: 7 x 7 pixels
   for (int margin : {0, 1, 3}) {
-    const io::Mask bg = dr::background_mask(f, margin);
+    const io::Mask bg = pipeline::background_mask(f, margin);
     const int side = 7 + 2 * margin;
     CHECK(bg.count() == std::size_t(32 * 32 - side * side));
   }
@@ -65,9 +66,9 @@ TEST_CASE("the margin keeps observations away from the mask") {
   env_only.environment_only = true;
   split.frames.push_back(env_only);
   std::vector<std::string> skipped;
-  dr::BackgroundOptions opt;
+  pipeline::BackgroundOptions opt;
   opt.margin = 1;
-  const auto obs = dr::background_observations(split, opt, &skipped);
+  const auto obs = pipeline::background_observations(split, opt, &skipped);
   CHECK(skipped == std::vector<std::string>{"unmasked"});
   CHECK(obs.size() == std::size_t(32 * 32 - 81 + 32 * 32));
 }
@@ -84,15 +85,15 @@ TEST_CASE("a fitted environment reproduces the background it was fitted to") {
   opt.width = W;
   opt.height = H;
   opt.smoothness = 1e-6;
-  const sc::EnvFit fit = sc::fit_environment(dr::background_observations(train), opt);
+  const sc::EnvFit fit = sc::fit_environment(pipeline::background_observations(train), opt);
   const sc::EnvMap fitted = sc::equirect_environment(fit.texels.data(), W, H);
-  const double psnr_train = dr::background_psnr(train, fitted);
+  const double psnr_train = pipeline::background_psnr(train, fitted);
   CHECK(psnr_train > 45);  // the data is explained almost exactly (8-bit tone mapping limits PSNR)
   // a held-out view sees partly unseen directions: worse, but finite
-  const double psnr_test = dr::background_psnr(test, fitted);
+  const double psnr_test = pipeline::background_psnr(test, fitted);
   CHECK(std::isfinite(psnr_test));
   CHECK(psnr_test < psnr_train + 1e-9);
   // against a constant map, the fit is much better
   const float grey[3] = {0.4f, 0.45f, 0.5f};
-  CHECK(dr::background_psnr(train, sc::constant_environment(grey)) < psnr_train - 10);
+  CHECK(pipeline::background_psnr(train, sc::constant_environment(grey)) < psnr_train - 10);
 }

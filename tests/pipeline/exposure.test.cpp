@@ -8,10 +8,11 @@
 #include <cstdint>
 #include <vector>
 
-#include "difftrans/render/exposure.hpp"
+#include "pipeline/exposure.hpp"
 
 using namespace dt_test;
 namespace dr = difftrans::render;
+namespace pipeline = difftrans::pipeline;
 namespace sc = difftrans::scene;
 namespace io = difftrans::io;
 
@@ -61,7 +62,7 @@ TEST_CASE("the exposure of 8-bit photographs of a known environment is recovered
     io::Split split;
     for (const Vec3f dir : {Vec3f(0, 0, 1), Vec3f(1, 0.3f, 0), Vec3f(-0.5f, -0.2f, -1)})
       split.frames.push_back(photo(env, dir, 48, scale));
-    const dr::ExposureEstimate e = dr::estimate_exposure(split, env);
+    const pipeline::ExposureEstimate e = pipeline::estimate_exposure(split, env);
     CAPTURE(scale);
     CHECK(e.scale == doctest::Approx(scale).epsilon(0.02));
     CHECK(e.pixels > 2000);
@@ -71,7 +72,7 @@ TEST_CASE("the exposure of 8-bit photographs of a known environment is recovered
     if (scale == 2.0) CHECK(e.clipped > 0);  // the band saturates
     else CHECK(e.clipped == 0);
     const float before = split.frames[1].image.rgb[7];
-    dr::apply_exposure(split, e.scale);
+    pipeline::apply_exposure(split, e.scale);
     CHECK(split.frames[1].image.rgb[7] == doctest::Approx(before / e.scale));
   }
 }
@@ -82,11 +83,11 @@ TEST_CASE("exposure: without usable pixels the scale is NaN; frames without mask
   io::Split split;
   split.frames.push_back(photo(env, Vec3f(0, 0, 1), 24, 1.0));
   split.frames[0].mask = io::Mask();
-  CHECK(std::isnan(dr::estimate_exposure(split, env).scale));
+  CHECK(std::isnan(pipeline::estimate_exposure(split, env).scale));
   // a black photograph: every pixel too dark
   io::Split dark;
   dark.frames.push_back(photo(env, Vec3f(0, 0, 1), 24, 1e-4));
-  const dr::ExposureEstimate e = dr::estimate_exposure(dark, env);
+  const pipeline::ExposureEstimate e = pipeline::estimate_exposure(dark, env);
   CHECK(e.pixels == 0);
   CHECK(e.dark > 0);
   CHECK(std::isnan(e.scale));
