@@ -7,6 +7,7 @@
 // curve, renders of the test views with metrics and a contact sheet, and the
 // IoR / CD / F1 errors when the scene has ground truth.
 #include "long_run.hpp"
+#include "materials_views.hpp"
 #include "stages.hpp"
 #include "stage_output.hpp"
 #include "views.hpp"
@@ -60,29 +61,9 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
   }
 
   // training views: images and masks
-  std::vector<pipeline::Stage2View> views;
-  std::vector<pipeline::Stage1View> mask_views;
-  for (const io::Frame& f : scene.train.frames) {
-    if (f.environment_only) continue;
-    if (f.mask.width == 0) {
-      warn("materials: frame " + f.name + " has no mask; it is not used");
-      continue;
-    }
-    pipeline::Stage2View v;
-    v.camera = render::camera_of(f);
-    if (f.image.width != v.camera.width || f.image.height != v.camera.height || f.mask.width != v.camera.width ||
-        f.mask.height != v.camera.height)
-      throw std::runtime_error("materials: frame " + f.name + ": image or mask size differs from its camera");
-    v.image = f.image.rgb.data();
-    v.mask = f.mask.inside.data();
-    views.push_back(v);
-    pipeline::Stage1View m;
-    m.camera = v.camera;
-    m.target.resize(f.mask.inside.size());
-    for (std::size_t p = 0; p < m.target.size(); ++p) m.target[p] = f.mask.inside[p] ? 1.0f : 0.0f;
-    mask_views.push_back(std::move(m));
-  }
-  if (views.empty()) throw std::runtime_error("materials: no training frame has an image and a mask");
+  MaterialsViews training = materials_training_views(scene);
+  std::vector<pipeline::Stage2View>& views = training.views;
+  std::vector<pipeline::Stage1View>& mask_views = training.mask_views;
 
   pipeline::Stage2Config cfg = config;
   {  // the absorption grid spans the mesh's box, a little grown

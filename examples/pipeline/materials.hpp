@@ -205,6 +205,63 @@ class Stage2 {
   bool done() const { return iteration_ >= config_.iterations; }
   const std::vector<Stage2Stats>& history() const { return history_; }
 
+  // The generator of iteration `it`'s random choices (its batch first, then
+  // the mask term's views): fixed by the seed and the iteration.
+  std::mt19937_64 batch_generator(int it) const {
+    return std::mt19937_64(config_.seed * 0x9E3779B97F4A7C15ull + std::uint64_t(it));
+  }
+
+  // One iteration's training rays and their target pixels, drawn from `rng`:
+  // views_per_iteration views without repetition, then rays_per_iteration /
+  // views random object pixels of each, one ray jittered inside each pixel.
+  void draw_batch(std::mt19937_64& rng, std::vector<BatchRay>& rays, std::vector<Vec3f>& target) const {
+    std::vector<int> order(views_.size());
+    std::iota(order.begin(), order.end(), 0);
+    std::shuffle(order.begin(), order.end(), rng);
+    order.resize(std::min<std::size_t>(order.size(), std::size_t(std::max(1, config_.views_per_iteration))));
+    rays.clear();
+    target.clear();
+    const int per_view = std::max(1, config_.rays_per_iteration / int(order.size()));
+    std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+    for (int v : order) {
+      const auto& pix = pixels_[std::size_t(v)];
+      if (pix.empty()) continue;
+      const Stage2View& view = views_[std::size_t(v)];
+      std::uniform_int_distribution<std::size_t> pick(0, pix.size() - 1);
+      for (int r = 0; r < per_view; ++r) {
+        const std::int32_t p = pix[pick(rng)];
+        const int x = p % view.camera.width, y = p / view.camera.width;
+        const scene::Ray ray = view.camera.generate_ray(x, y, unit(rng), unit(rng));
+        rays.push_back({ray.origin, ray.direction});
+        const float* c = view.image + std::size_t(p) * 3;
+        target.push_back(Vec3f(c[0], c[1], c[2]));
+      }
+    }
+  }
+
+  // One training ray's weighted colour + tone loss (inv_n: 1 / the batch's
+  // ray count) and its adjoint d value / d radiance. An outlier (colour loss
+  // above max_ray_loss, or NaN) is skipped: value and adjoint 0.
+  struct RayLoss {
+    double value = 0.0, colour = 0.0, tone = 0.0;
+    Vec3f adjoint{0.0f};
+    bool skipped = false;
+  };
+  RayLoss ray_loss(const Vec3f& radiance, const Vec3f& target, float inv_n) const {
+    const Stage2Weights& w = config_.weights;
+    const losses::RayColourLoss l = losses::ray_colour_loss(radiance, target, config_.relative_l2, w.tone != 0.0f);
+    RayLoss out;
+    if (!(l.colour <= double(config_.max_ray_loss))) {  // NaN or an outlier: no gradient
+      out.skipped = true;
+      return out;
+    }
+    out.colour = l.colour;
+    out.tone = l.tone;
+    out.adjoint = inv_n * (w.color * l.dcolour + w.tone * l.dtone);
+    out.value = w.color * inv_n * l.colour + w.tone * inv_n * l.tone;
+    return out;
+  }
+
   Stage2Stats step() {
     using clock = std::chrono::steady_clock;
     const auto t0 = clock::now();
@@ -223,29 +280,10 @@ class Stage2 {
     scene_.differentiate[param_environment] = false;
 
     // the batch: views without repetition, pixels with a jitter inside each
-    std::mt19937_64 rng(config_.seed * 0x9E3779B97F4A7C15ull + std::uint64_t(it));
-    std::vector<int> order(views_.size());
-    std::iota(order.begin(), order.end(), 0);
-    std::shuffle(order.begin(), order.end(), rng);
-    order.resize(std::min<std::size_t>(order.size(), std::size_t(std::max(1, config_.views_per_iteration))));
+    std::mt19937_64 rng = batch_generator(it);
     std::vector<BatchRay> rays;
     std::vector<Vec3f> target;
-    const int per_view = std::max(1, config_.rays_per_iteration / int(order.size()));
-    std::uniform_real_distribution<float> unit(0.0f, 1.0f);
-    for (int v : order) {
-      const auto& pix = pixels_[std::size_t(v)];
-      if (pix.empty()) continue;
-      const Stage2View& view = views_[std::size_t(v)];
-      std::uniform_int_distribution<std::size_t> pick(0, pix.size() - 1);
-      for (int r = 0; r < per_view; ++r) {
-        const std::int32_t p = pix[pick(rng)];
-        const int x = p % view.camera.width, y = p / view.camera.width;
-        const scene::Ray ray = view.camera.generate_ray(x, y, unit(rng), unit(rng));
-        rays.push_back({ray.origin, ray.direction});
-        const float* c = view.image + std::size_t(p) * 3;
-        target.push_back(Vec3f(c[0], c[1], c[2]));
-      }
-    }
+    draw_batch(rng, rays, target);
 
     // tracer: losses and their gradients
     SceneGradient grad(scene_);
@@ -259,17 +297,12 @@ class Stage2 {
     const RayBatchResult rb = ray_batch_gradient<float>(
         scene_, rays,
         [&](std::int32_t i, const Vec3f& L, Vec3f& dL) {
-          const losses::RayColourLoss l =
-              losses::ray_colour_loss(L, target[std::size_t(i)], config_.relative_l2, w.tone != 0.0f);
-          if (!(l.colour <= double(config_.max_ray_loss))) {  // NaN or an outlier: no gradient
-            skipped[std::size_t(i)] = 1;
-            dL = Vec3f(0.0f);
-            return 0.0;
-          }
+          const RayLoss l = ray_loss(L, target[std::size_t(i)], inv_n);
+          skipped[std::size_t(i)] = l.skipped;
           color_per_ray[std::size_t(i)] = l.colour;
           tone_per_ray[std::size_t(i)] = l.tone;
-          dL = inv_n * (w.color * l.dcolour + w.tone * l.dtone);
-          return w.color * inv_n * l.colour + w.tone * inv_n * l.tone;
+          dL = l.adjoint;
+          return l.value;
         },
         grad, po, false, st.geometry_moving ? config_.clip_geometry * inv_n : 0.0f);
     st.clipped_rays = rb.clipped_rays;

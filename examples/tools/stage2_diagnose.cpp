@@ -1,0 +1,859 @@
+// stage2_diagnose: measurements of why stage 2's joint refinement of the
+// vertices (pipeline::Stage2 with optimize_positions) makes the stage-1 mesh
+// worse, on the loss stage 2 actually optimizes: its batches of jittered
+// object-pixel rays, its colour + tone loss, its tracer settings (depth 4,
+// pruning 0.01) and its vertex gradient (ray_batch_gradient, normals folded
+// into the positions, optionally clipped per ray).
+//
+//   gradcheck  the directional derivative of the loss on one fixed batch
+//              along smooth displacement fields (normal offsets by smooth
+//              functions of position): reverse mode (double and float
+//              tapes, unclipped and clipped) and forward mode per ray
+//              against central differences of the primal (double), in
+//              total and ray by ray — by ray class (miss, TIR, number of
+//              surface hits), for rays whose path counts changed across the
+//              difference or not, and for the paths of at most 1 and 2
+//              interactions (adjoints held at x). --check makes it a test:
+//              exit status 1 when too few rays agree.
+//   home       does the gradient point home? Δ = nearest point of the true
+//              mesh − vertex; cosines of −∇L (raw, clipped as stage 2 does,
+//              large-steps preconditioned (I + λL)^-2) with Δ per batch and
+//              of the batch mean; the gradient's noise split by path length,
+//              TIR and target brightness; the deterministic loss along
+//              x + tΔ; all at several blurs of the environment, against the
+//              photographs or against the true object traced along the same
+//              rays (targets that share the blur and carry no pixel filter).
+//
+// Results are JSON on stdout, progress on stderr.
+#include <CLI/CLI.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <exception>
+#include <filesystem>
+#include <functional>
+#include <iostream>
+#include <memory>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "../difftrans/materials_views.hpp"
+#include "../difftrans/stage_output.hpp"
+#include "../difftrans/views.hpp"
+#include "difftrans/geometry/remesh.hpp"
+#include "difftrans/optim/large_steps.hpp"
+#include "pipeline/materials.hpp"
+
+namespace {
+
+using namespace difftrans;
+namespace fs = std::filesystem;
+using render::BatchRay;
+using render::HostScene;
+using render::TraceSettings;
+using render::TraceStats;
+
+// ------------------------------------------------------------------ inputs
+
+struct CommonOptions {
+  fs::path scene;
+  fs::path mesh;          // the mesh being refined (default: none; required)
+  fs::path material;      // default: SCENE/gt/material.json
+  std::string env;        // map, folder or constant:R,G,B; default SCENE/gt/envmap.hdr
+  int rays = 8192, views = 8, depth = 4;
+  float prune = 0.01f;
+  std::uint64_t seed = 1;
+  int iteration = 0;      // the first batch is Stage2's batch of this iteration
+};
+
+void add_common(CLI::App* cmd, CommonOptions& o) {
+  cmd->add_option("scene", o.scene, "Scene directory (train images and masks)")->required();
+  cmd->add_option("--mesh", o.mesh, "Mesh to differentiate (e.g. a stage-1 mesh_stage1.obj)")->required();
+  cmd->add_option("--material", o.material, "Material (IoR, absorption); default SCENE/gt/material.json");
+  cmd->add_option("--env", o.env, "Environment: a map, a reconstruct folder or constant:R,G,B; default SCENE/gt/envmap.hdr");
+  cmd->add_option("--rays", o.rays, "Rays per batch (Stage2Config::rays_per_iteration)")->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--views", o.views, "Views per batch")->capture_default_str()->check(CLI::PositiveNumber);
+  cmd->add_option("--depth", o.depth, "Training depth")->capture_default_str()->check(CLI::Range(1, render::max_trace_depth));
+  cmd->add_option("--prune", o.prune, "Pruning threshold on a branch's throughput")->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0));
+  cmd->add_option("--seed", o.seed, "Stage 2's seed (draws the batches)")->capture_default_str();
+  cmd->add_option("--iteration", o.iteration, "Batch k is Stage2's batch of iteration ITERATION + k")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
+}
+
+// A separable Gaussian blur of an equirectangular map, sigma in texels
+// (wrapping around in longitude, clamped at the poles); sigma <= 0: a copy.
+io::Image blur_equirect(const io::Image& in, double sigma) {
+  if (sigma <= 0.0) return in;
+  const int radius = int(std::ceil(3.0 * sigma));
+  std::vector<double> k(std::size_t(2 * radius + 1));
+  double sum = 0.0;
+  for (int i = -radius; i <= radius; ++i) sum += k[std::size_t(i + radius)] = std::exp(-0.5 * i * i / (sigma * sigma));
+  for (double& v : k) v /= sum;
+  const int w = in.width, h = in.height;
+  io::Image row(w, h), out(w, h);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      Vec3d acc(0.0);
+      for (int i = -radius; i <= radius; ++i) acc += k[std::size_t(i + radius)] * Vec3d(in.at(((x + i) % w + w) % w, y));
+      row.set(x, y, Vec3f(acc));
+    }
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      Vec3d acc(0.0);
+      for (int i = -radius; i <= radius; ++i)
+        acc += k[std::size_t(i + radius)] * Vec3d(row.at(x, std::clamp(y + i, 0, h - 1)));
+      out.set(x, y, Vec3f(acc));
+    }
+  return out;
+}
+
+// The scene, the mesh with its material and environment, and a Stage2 that
+// draws the batches and evaluates the per-ray loss exactly as the fit does.
+class Setup {
+ public:
+  explicit Setup(const CommonOptions& o) : options_(o) {
+    if (!fs::is_directory(o.scene)) throw io::Error(o.scene, "scene directory not found");
+    cli::progress("stage2_diagnose: loading " + o.scene.string());
+    scene_ = io::load_scene(o.scene);
+    for (const auto& w : scene_.warnings) cli::warn(w);
+    const fs::path material = o.material.empty() ? scene_.gt.material : o.material;
+    if (material.empty() || !fs::exists(material))
+      throw io::Error(material.empty() ? o.scene / "gt/material.json" : material, "material not found (give --material)");
+    material_ = io::read_material(material);
+    const std::string env = o.env.empty() ? scene_.gt.envmap.string() : o.env;
+    if (env.empty()) throw io::Error(o.scene, "has no gt/envmap.hdr: give --env");
+    environment_ = cli::load_environment(env);
+    if (environment_.field) throw io::Error(environment_.file, "a radiance field: these diagnostics need a distant map");
+    mesh_ = cli::load_mesh(o.mesh);
+    s_ = std::make_unique<HostScene>(render::make_host_scene(mesh_, material_, o.mesh.filename().string()));
+    cli::apply_environment(*s_, environment_);
+    training_ = cli::materials_training_views(scene_);
+    config_.rays_per_iteration = o.rays;
+    config_.views_per_iteration = o.views;
+    config_.trace.max_depth = o.depth;
+    config_.trace.prune_throughput = o.prune;
+    config_.seed = o.seed;
+    // Stage2 starts the material afresh; the diagnostics keep the given one
+    const float ior = s_->ior;
+    const scene::AbsorptionKind kind = s_->absorption_kind;
+    const std::vector<float> raw = s_->absorption_raw;
+    const Vec3i res = s_->absorption_res;
+    const Vec3f lo = s_->absorption_lo, hi = s_->absorption_hi;
+    stage_ = std::make_unique<pipeline::Stage2>(*s_, training_.views, training_.mask_views, config_);
+    s_->ior = ior;
+    s_->absorption_kind = kind;
+    s_->absorption_raw = raw;
+    s_->absorption_res = res;
+    s_->absorption_lo = lo;
+    s_->absorption_hi = hi;
+    for (bool& d : s_->differentiate) d = false;
+    s_->differentiate[render::param_positions] = s_->differentiate[render::param_normals] = true;
+  }
+
+  HostScene& scene() { return *s_; }
+  const io::Scene& data() const { return scene_; }
+  const io::Material& material() const { return material_; }
+  const pipeline::Stage2& stage() const { return *stage_; }
+  const pipeline::Stage2Config& config() const { return config_; }
+  const TraceSettings& trace() const { return config_.trace; }
+  const cli::Environment& environment() const { return environment_; }
+  const io::Mesh& mesh() const { return mesh_; }
+
+  // Stage2's batch of iteration options.iteration + k.
+  void batch(int k, std::vector<BatchRay>& rays, std::vector<Vec3f>& target) const {
+    std::mt19937_64 rng = stage_->batch_generator(options_.iteration + k);
+    stage_->draw_batch(rng, rays, target);
+    if (rays.empty()) throw std::runtime_error("stage2_diagnose: the batch is empty (no object pixels?)");
+  }
+
+  // The environment blurred by sigma texels (0: as loaded); this scene and `also`.
+  void set_blur(double sigma, HostScene* also = nullptr) {
+    if (environment_.file.empty()) return;  // a constant: nothing to blur
+    const io::Image map = blur_equirect(environment_.map, sigma);
+    render::set_environment(*s_, map);
+    if (also) render::set_environment(*also, map);
+  }
+
+  void set_positions(const std::vector<float>& x) {
+    s_->mesh.positions = x;
+    s_->positions_changed();
+  }
+
+ private:
+  CommonOptions options_;
+  io::Scene scene_;
+  io::Material material_;
+  cli::Environment environment_;
+  io::Mesh mesh_;
+  std::unique_ptr<HostScene> s_;
+  cli::MaterialsViews training_;
+  pipeline::Stage2Config config_;
+  std::unique_ptr<pipeline::Stage2> stage_;
+};
+
+// ------------------------------------------------------------------ tracing
+
+// One ray's radiance in double, its derivative along a direction of the
+// vertex positions (forward mode; zero without a direction) and what the
+// tracer counted on its way.
+struct RayEval {
+  Vec3d radiance{0.0}, derivative{0.0};
+  TraceStats stats;
+};
+
+bool same_path(const TraceStats& a, const TraceStats& b) {
+  return a.segments == b.segments && a.hits == b.hits && a.tir == b.tir && a.pruned == b.pruned &&
+         a.depth_cut == b.depth_cut && a.fallback_hits == b.fallback_hits;
+}
+
+// Every ray traced in double (or Dual<double, 1> along `direction`, 3 values
+// per vertex, when given) with the library's tracer on the thread pool.
+std::vector<RayEval> trace_rays(const HostScene& s, const std::vector<BatchRay>& rays, const TraceSettings& settings,
+                                const std::vector<float>* direction = nullptr) {
+  using D = ad::Dual<double, 1>;
+  std::vector<RayEval> out(rays.size());
+  ad::ParamSet params = s.params();
+  if (direction) params.buffers[render::param_positions].tangents[0] = direction->data();
+  const render::SceneView view = s.view(direction != nullptr);
+  ThreadPool::global().parallel_for(std::int64_t(rays.size()), 64, [&](std::int64_t b, std::int64_t e, int) {
+    for (std::int64_t i = b; i < e; ++i) {
+      const BatchRay& r = rays[std::size_t(i)];
+      RayEval& o = out[std::size_t(i)];
+      s.with_escape([&](const auto& escape) {
+        if (direction) {
+          ad::ParamReader<D> reader(&params);
+          const Vec3<D> L = render::trace<D>(view, s.accel(), reader, r.origin, r.direction, settings, &o.stats, escape);
+          for (int c = 0; c < 3; ++c) o.radiance[c] = L[c].value, o.derivative[c] = L[c].grad[0];
+        } else {
+          ad::ParamReader<double> reader(&params);
+          o.radiance = render::trace<double>(view, s.accel(), reader, r.origin, r.direction, settings, &o.stats, escape);
+        }
+      });
+    }
+  });
+  return out;
+}
+
+// Per-ray loss callback of ray_batch_gradient (ray index, radiance, adjoint out) -> loss.
+using LossFn = std::function<double(std::int32_t, const Vec3f&, Vec3f&)>;
+
+// The gradient w.r.t. the vertex positions (normals folded in, as stage 2
+// takes it) of Σ loss over `rays`, tapes in T; clip as Stage2 passes it.
+template <class T>
+std::vector<double> vertex_gradient(const HostScene& s, const std::vector<BatchRay>& rays, const LossFn& loss,
+                                    const TraceSettings& settings, float clip = 0.0f, std::int64_t* clipped = nullptr) {
+  render::SceneGradient g(s);
+  render::PassOptions po;
+  po.trace = settings;
+  const render::RayBatchResult r = render::ray_batch_gradient<T>(s, rays, loss, g, po, false, clip);
+  if (clipped) *clipped = r.clipped_rays;
+  if (r.stats.overflowed_rays > 0)
+    cli::warn(std::to_string(r.stats.overflowed_rays) + " rays overflowed their tape: no gradient from them");
+  return std::vector<double>(g.positions.begin(), g.positions.end());
+}
+
+double dot(const std::vector<double>& a, const std::vector<double>& b) {
+  double s = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i) s += a[i] * b[i];
+  return s;
+}
+double norm(const std::vector<double>& a) { return std::sqrt(dot(a, a)); }
+double cosine(const std::vector<double>& a, const std::vector<double>& b) {
+  const double n = norm(a) * norm(b);
+  return n > 0.0 ? dot(a, b) / n : 0.0;
+}
+double rel_error(double approx, double exact) {
+  return std::abs(approx - exact) / std::max(std::abs(exact), 1e-300);
+}
+double luminance(const Vec3f& c) { return (double(c.x) + double(c.y) + double(c.z)) / 3.0; }
+
+// The ray classes reported separately, from the tracer's counts at x.
+const char* ray_class(const TraceStats& st) {
+  if (st.hits == 0) return "miss";
+  if (st.tir > 0) return "tir";
+  if (st.hits <= 2) return "hits_1_2";
+  if (st.hits <= 4) return "hits_3_4";
+  return "hits_5_plus";
+}
+const std::vector<std::string> ray_classes = {"miss", "hits_1_2", "hits_3_4", "hits_5_plus", "tir"};
+
+// ------------------------------------------------------------------ gradcheck
+
+// Smooth displacement fields: the vertex normal times a smooth function of
+// position, scaled to an RMS displacement of 1 per vertex.
+std::vector<double> displacement_field(const scene::TriangleMesh& m, const std::string& name) {
+  std::vector<double> d(m.positions.size());
+  const Vec3d axis = glm::normalize(Vec3d(0.8, 0.5, 0.3));
+  const double pi = 3.14159265358979323846;
+  for (std::int32_t v = 0; v < m.num_vertices(); ++v) {
+    const Vec3d p(m.positions[3 * std::size_t(v)], m.positions[3 * std::size_t(v) + 1], m.positions[3 * std::size_t(v) + 2]);
+    double f = 1.0;
+    if (name == "wave1") f = std::cos(2.0 * pi * glm::dot(axis, p) + 0.3);
+    else if (name == "wave3") f = std::cos(6.0 * pi * glm::dot(axis, p) + 0.3) * std::cos(4.0 * pi * p.y);
+    else if (name != "inflate") throw CLI::ValidationError("--fields", "'" + name + "' is not a field (inflate, wave1, wave3)");
+    for (int c = 0; c < 3; ++c) d[3 * std::size_t(v) + c] = f * double(m.vertex_normals[3 * std::size_t(v) + c]);
+  }
+  const double rms = norm(d) / std::sqrt(double(std::max<std::int32_t>(1, m.num_vertices())));
+  if (!(rms > 0.0)) throw std::runtime_error("displacement field '" + name + "' is zero on this mesh");
+  for (double& x : d) x /= rms;
+  return d;
+}
+
+// FD against AD over a set of rays: sums, the rays that agree, the median per-ray error.
+struct Agreement {
+  std::int64_t rays = 0, agree = 0;
+  double fd = 0.0, ad = 0.0, fd_disagreeing = 0.0, ad_disagreeing = 0.0;
+  std::vector<double> errors, magnitudes;
+  void add(double f, double a, bool ok, double error) {
+    ++rays;
+    magnitudes.push_back(std::abs(a));
+    fd += f;
+    ad += a;
+    if (ok) ++agree;
+    else fd_disagreeing += f, ad_disagreeing += a;
+    errors.push_back(error);
+  }
+  io::Json json() {
+    double median = 0.0;
+    if (!errors.empty()) {
+      std::nth_element(errors.begin(), errors.begin() + std::ptrdiff_t(errors.size() / 2), errors.end());
+      median = errors[errors.size() / 2];
+    }
+    // how heavy the tail is: the share of Σ|AD_i| that the largest 1 % of the rays carry
+    std::sort(magnitudes.begin(), magnitudes.end(), [](double x, double y) { return x > y; });
+    double total = 0.0, top = 0.0;
+    for (std::size_t i = 0; i < magnitudes.size(); ++i) {
+      total += magnitudes[i];
+      if (i < (magnitudes.size() + 99) / 100) top += magnitudes[i];
+    }
+    return {{"rays", rays}, {"agreeing", rays ? double(agree) / double(rays) : 1.0}, {"median_rel_error", median},
+            {"ad_abs_top1pct_share", total > 0.0 ? top / total : 0.0},
+            {"fd", fd}, {"ad", ad}, {"rel_error", rel_error(fd, ad)}, {"fd_disagreeing", fd_disagreeing},
+            {"ad_disagreeing", ad_disagreeing}};
+  }
+};
+
+struct GradcheckOptions {
+  std::vector<std::string> fields{"inflate", "wave1", "wave3"};
+  std::vector<double> steps{1e-3, 3e-4, 1e-4, 3e-5};
+  double ray_tolerance = 0.01;  // a ray agrees when |FD − AD| <= this · (|AD| + floor)
+  bool check = false;           // exit status 1 unless min_agreeing of the unchanged rays agree at some step
+  double min_agreeing = 0.8;    // and reverse and forward mode agree within reverse_tolerance · Σ|AD_i|
+  double reverse_tolerance = 1e-3;
+  std::string inject;       // "flat-normals": differentiate a renderer with flat facets (the check must catch it)
+};
+
+io::Json gradcheck(Setup& setup, const GradcheckOptions& o, bool& passed) {
+  HostScene& s = setup.scene();
+  std::vector<BatchRay> rays;
+  std::vector<Vec3f> target;
+  setup.batch(0, rays, target);
+  const std::size_t n = rays.size();
+  const float inv_n = 1.0f / float(n);
+  const TraceSettings settings = setup.trace();
+  TraceSettings ad_settings = settings;
+  if (o.inject == "flat-normals") ad_settings.smooth_normals = false;
+  else if (!o.inject.empty()) throw CLI::ValidationError("--inject", "'" + o.inject + "' is not known (flat-normals)");
+  const pipeline::Stage2& stage = setup.stage();
+  const std::vector<float> x0 = s.mesh.positions;
+
+  // at x: per-ray losses, their adjoints, the classes, the radiance at depths 1 and 2 (path-length parts)
+  const std::vector<RayEval> at_x = trace_rays(s, rays, settings);
+  std::vector<Vec3f> adjoint(n);
+  std::vector<int> cls(n);
+  double loss0 = 0.0;
+  io::Json class_counts = io::Json::object();
+  for (const std::string& c : ray_classes) class_counts[c] = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto l = stage.ray_loss(Vec3f(at_x[i].radiance), target[i], inv_n);
+    adjoint[i] = l.adjoint;
+    loss0 += l.value;
+    const std::string c = ray_class(at_x[i].stats);
+    cls[i] = int(std::find(ray_classes.begin(), ray_classes.end(), c) - ray_classes.begin());
+    class_counts[c] = class_counts[c].get<int>() + 1;
+  }
+  const LossFn real_loss = [&](std::int32_t i, const Vec3f& L, Vec3f& dL) {
+    const auto l = stage.ray_loss(L, target[std::size_t(i)], inv_n);
+    dL = l.adjoint;
+    return l.value;
+  };
+  const std::vector<int> depths = {1, 2, settings.max_depth};
+
+  io::Json out;
+  out["rays"] = n;
+  out["loss"] = loss0;
+  out["ray_classes"] = class_counts;
+  out["inject"] = o.inject.empty() ? "none" : o.inject;
+  out["fields"] = io::Json::array();
+  passed = true;
+  for (const std::string& name : o.fields) {
+    cli::progress("gradcheck: field " + name);
+    const std::vector<double> field = displacement_field(s.mesh, name);
+    io::Json fj;
+    fj["field"] = name;
+    // reverse mode at x, double and float tapes, unclipped and clipped as stage 2
+    s.mesh.positions = x0;
+    s.positions_changed();
+    const TraceSettings& ts = ad_settings;
+    const std::vector<double> g_double = vertex_gradient<double>(s, rays, real_loss, ts);
+    const std::vector<double> g_float = vertex_gradient<float>(s, rays, real_loss, ts);
+    std::int64_t clipped = 0;
+    const std::vector<double> g_clipped =
+        vertex_gradient<float>(s, rays, real_loss, ts, setup.config().clip_geometry * inv_n, &clipped);
+    io::Json steps = io::Json::array();
+    const std::size_t full = depths.size() - 1;
+    // per ray and path length: agreed with AD at some step; the counts unchanged at every step
+    std::vector<std::vector<char>> agreed(depths.size(), std::vector<char>(n, 0));
+    std::vector<char> unchanged_always(n, 1);
+    double worst_reverse_forward = 0.0;
+    for (double h : o.steps) {
+      // x ± h d rounded to float; the derivative is taken along the displacement actually made
+      std::vector<float> xp(x0.size()), xm(x0.size());
+      std::vector<double> d(x0.size());
+      for (std::size_t k = 0; k < x0.size(); ++k) {
+        xp[k] = float(double(x0[k]) + h * field[k]);
+        xm[k] = float(double(x0[k]) - h * field[k]);
+        d[k] = (double(xp[k]) - double(xm[k])) / (2.0 * h);
+      }
+      const std::vector<float> df(d.begin(), d.end());
+      io::Json sj;
+      sj["h"] = h;
+      for (std::size_t k = 0; k < depths.size(); ++k) {
+        TraceSettings t = settings, ta = ad_settings;
+        t.max_depth = ta.max_depth = depths[k];
+        setup.set_positions(xp);
+        const std::vector<RayEval> plus = trace_rays(s, rays, t);
+        setup.set_positions(xm);
+        const std::vector<RayEval> minus = trace_rays(s, rays, t);
+        setup.set_positions(x0);
+        const std::vector<RayEval> fwd = trace_rays(s, rays, ta, &df);
+        // per ray: FD and AD of the real loss (full depth) or of a_i · radiance (the parts, adjoints held at x)
+        std::vector<double> fd(n), adv(n);
+        std::vector<char> same(n);
+        for (std::size_t i = 0; i < n; ++i) {
+          if (k == full) {
+            const double lp = stage.ray_loss(Vec3f(plus[i].radiance), target[i], inv_n).value;
+            const double lm = stage.ray_loss(Vec3f(minus[i].radiance), target[i], inv_n).value;
+            fd[i] = (lp - lm) / (2.0 * h);
+          } else {
+            fd[i] = glm::dot(Vec3d(adjoint[i]), plus[i].radiance - minus[i].radiance) / (2.0 * h);
+          }
+          adv[i] = glm::dot(Vec3d(adjoint[i]), fwd[i].derivative);
+          same[i] = same_path(plus[i].stats, minus[i].stats);
+        }
+        double ms = 0.0;
+        for (double a : adv) ms += a * a;
+        const double floor = 1e-3 * std::sqrt(ms / double(n));  // |AD_i| below this counts as zero
+        std::vector<char> agree(n);
+        for (std::size_t i = 0; i < n; ++i) {
+          agree[i] = std::abs(fd[i] - adv[i]) <= o.ray_tolerance * (std::abs(adv[i]) + floor);
+          agreed[k][i] = agreed[k][i] || agree[i];
+        }
+        const auto summary = [&](const std::function<bool(std::size_t)>& in) {
+          Agreement a;
+          for (std::size_t i = 0; i < n; ++i)
+            if (in(i)) a.add(fd[i], adv[i], agree[i] != 0, std::abs(fd[i] - adv[i]) / (std::abs(adv[i]) + floor));
+          return a.json();
+        };
+        if (k == full) {
+          double fd_all = 0.0, ad_fwd = 0.0, ad_abs = 0.0;
+          std::int64_t changed = 0;
+          for (std::size_t i = 0; i < n; ++i) {
+            fd_all += fd[i];
+            ad_fwd += adv[i];
+            ad_abs += std::abs(adv[i]);
+            changed += !same[i];
+            unchanged_always[i] = unchanged_always[i] && same[i];
+          }
+          const double ad_rev = dot(g_double, d);
+          sj["ad_reverse_double"] = ad_rev;
+          sj["ad_reverse_float"] = dot(g_float, d);
+          sj["ad_reverse_clipped"] = dot(g_clipped, d);
+          sj["ad_forward"] = ad_fwd;
+          sj["fd"] = fd_all;
+          sj["rel_error"] = rel_error(fd_all, ad_rev);
+          // relative to Σ|AD_i|: the rays' terms cancel, and the reverse pass sums them into float gradients
+          const double reverse_forward = std::abs(ad_fwd - ad_rev) / std::max(ad_abs, 1e-300);
+          sj["reverse_vs_forward"] = reverse_forward;
+          worst_reverse_forward = std::max(worst_reverse_forward, reverse_forward);
+          sj["changed_rays"] = changed;
+          sj["rays"] = summary([](std::size_t) { return true; });
+          sj["unchanged"] = summary([&](std::size_t i) { return same[i] != 0; });
+          sj["changed"] = summary([&](std::size_t i) { return !same[i]; });
+          io::Json cj = io::Json::object();
+          for (std::size_t c = 0; c < ray_classes.size(); ++c)
+            cj[ray_classes[c]] = summary([&](std::size_t i) { return cls[i] == int(c); });
+          sj["classes"] = cj;
+        } else {
+          sj[k == 0 ? "depth_1" : "depth_2"] = summary([&](std::size_t i) { return same[i] != 0; });
+        }
+      }
+      steps.push_back(sj);
+    }
+    setup.set_positions(x0);
+    // rays that agreed with AD at some step, by ray class and path length
+    const auto fraction = [&](const std::vector<char>& ok, const std::function<bool(std::size_t)>& in) {
+      std::int64_t m = 0, a = 0;
+      for (std::size_t i = 0; i < n; ++i)
+        if (in(i)) ++m, a += ok[i];
+      return m ? double(a) / double(m) : 1.0;
+    };
+    io::Json agreeing;
+    agreeing["all"] = fraction(agreed[full], [](std::size_t) { return true; });
+    agreeing["unchanged"] = fraction(agreed[full], [&](std::size_t i) { return unchanged_always[i] != 0; });
+    for (std::size_t c = 0; c < ray_classes.size(); ++c)
+      agreeing[ray_classes[c]] = fraction(agreed[full], [&](std::size_t i) { return cls[i] == int(c); });
+    agreeing["depth_1"] = fraction(agreed[0], [](std::size_t) { return true; });
+    agreeing["depth_2"] = fraction(agreed[1], [](std::size_t) { return true; });
+    fj["clipped_rays"] = clipped;
+    fj["gradient_norm"] = norm(g_double);
+    fj["steps"] = steps;
+    fj["agreeing_at_some_step"] = agreeing;
+    fj["worst_reverse_vs_forward"] = worst_reverse_forward;
+    const double unchanged_agreeing = agreeing["unchanged"].get<double>();
+    if (o.check && (unchanged_agreeing < o.min_agreeing || worst_reverse_forward > o.reverse_tolerance)) passed = false;
+    out["fields"].push_back(fj);
+  }
+  out["ray_tolerance"] = o.ray_tolerance;
+  if (o.check) {
+    out["min_agreeing"] = o.min_agreeing;
+    out["reverse_tolerance"] = o.reverse_tolerance;
+    out["passed"] = passed;
+  }
+  return out;
+}
+
+// ------------------------------------------------------------------ home
+
+struct HomeOptions {
+  fs::path gt_mesh;                      // default SCENE/gt/mesh.obj
+  std::vector<double> blurs{0, 2, 8, 32};
+  int batches = 20;
+  int loss_batches = 8;
+  double t_max = 1.5, t_step = 0.1;
+  std::string targets = "photo";         // photo | ray
+  int noise_blur_index = 0;              // the blur whose gradient noise is split by class
+  fs::path write_projected;              // the mesh moved onto the true surface (x + Δ), as OBJ
+};
+
+// Running statistics of one gradient component over the batches.
+struct ComponentStats {
+  std::vector<double> sum;               // Σ_b g_b
+  double sum_norm2 = 0.0, sum_proj = 0.0, sum_proj2 = 0.0, sum_cos = 0.0;
+  int count = 0;
+  void add(const std::vector<double>& g, const std::vector<double>& delta_unit) {
+    if (sum.empty()) sum.assign(g.size(), 0.0);
+    for (std::size_t k = 0; k < g.size(); ++k) sum[k] += g[k];
+    const double p = -dot(g, delta_unit);
+    sum_norm2 += dot(g, g);
+    sum_proj += p;
+    sum_proj2 += p * p;
+    sum_cos += p / std::max(norm(g), 1e-300);
+    ++count;
+  }
+  io::Json json(const std::vector<double>& delta_unit) const {
+    const double nb = double(std::max(1, count));
+    std::vector<double> mean(sum.size());
+    for (std::size_t k = 0; k < sum.size(); ++k) mean[k] = sum[k] / nb;
+    const double mp = sum_proj / nb, var_p = std::max(0.0, sum_proj2 / nb - mp * mp);
+    const double mean_norm2 = sum_norm2 / nb, norm2_of_mean = dot(mean, mean);
+    return {{"mean_cos_minus_grad_delta", sum_cos / nb},
+            {"cos_minus_mean_grad_delta", -cosine(mean, delta_unit)},
+            {"proj_mean", mp},             // E[−g·Δ̂]
+            {"proj_std", std::sqrt(var_p)},
+            {"proj_snr", std::sqrt(var_p) > 0 ? mp / std::sqrt(var_p) : 0.0},
+            {"norm2_mean", mean_norm2},    // E|g|²
+            {"norm2_of_mean", norm2_of_mean},
+            {"variance_total", std::max(0.0, mean_norm2 - norm2_of_mean)}};
+  }
+};
+
+// (I + λL)^-2 g, the direction of large steps' first update in x.
+std::vector<double> preconditioned(const optim::LargeSteps& m, const std::vector<double>& g) {
+  const std::vector<float> gf(g.begin(), g.end());
+  const std::vector<float> once = m.backward(gf);
+  const std::vector<float> twice = m.backward(once);
+  return std::vector<double>(twice.begin(), twice.end());
+}
+
+io::Json home(Setup& setup, const HomeOptions& o) {
+  HostScene& s = setup.scene();
+  const fs::path gt_path = o.gt_mesh.empty() ? setup.data().gt.mesh : o.gt_mesh;
+  if (gt_path.empty() || !fs::exists(gt_path)) throw io::Error(gt_path.empty() ? "gt/mesh.obj" : gt_path, "true mesh not found (give --gt-mesh)");
+  const io::Mesh gt_mesh = cli::load_mesh(gt_path);
+  HostScene truth = render::make_host_scene(gt_mesh, setup.material(), "truth");
+  cli::apply_environment(truth, setup.environment());
+  const std::vector<float> x0 = s.mesh.positions;
+  // Δ: each vertex to its nearest point of the true surface
+  std::vector<double> delta(x0.size()), delta_unit;
+  {
+    const geometry::ClosestPointTree tree(truth.mesh.positions, truth.mesh.triangles);
+    for (std::size_t v = 0; v < x0.size() / 3; ++v) {
+      const glm::vec3 p(x0[3 * v], x0[3 * v + 1], x0[3 * v + 2]);
+      const glm::vec3 q = tree.closest(p).point;
+      for (int c = 0; c < 3; ++c) delta[3 * v + std::size_t(c)] = double(q[c]) - double(p[c]);
+    }
+  }
+  const double delta_norm = norm(delta);
+  delta_unit = delta;
+  for (double& x : delta_unit) x /= delta_norm;
+  // how much of Δ lies along the vertex normals (fraction of |Δ|²)
+  double along_normal = 0.0;
+  {
+    double sum = 0.0;
+    for (std::size_t v = 0; v < x0.size() / 3; ++v) {
+      double dn = 0.0;
+      for (int c = 0; c < 3; ++c) dn += delta[3 * v + std::size_t(c)] * double(s.mesh.vertex_normals[3 * v + std::size_t(c)]);
+      sum += dn * dn;
+    }
+    along_normal = sum / std::max(1e-300, delta_norm * delta_norm);
+  }
+  if (!o.write_projected.empty()) {
+    std::vector<float> xp(x0.size());
+    for (std::size_t k = 0; k < x0.size(); ++k) xp[k] = float(double(x0[k]) + delta[k]);
+    io::write_mesh(o.write_projected, cli::to_io_mesh(xp, s.mesh.triangles));
+  }
+  optim::LargeSteps large_steps(setup.config().lambda);
+  large_steps.set_topology(s.mesh.triangles, s.mesh.num_vertices());
+
+  const std::size_t nv = x0.size() / 3;
+  io::Json out;
+  // the best cosine a preconditioned step can reach: that of (I + λL)^-2 Δ with Δ
+  out["preconditioned_ceiling"] = cosine(preconditioned(large_steps, delta), delta);
+  out["vertices"] = nv;
+  out["delta_rms"] = delta_norm / std::sqrt(double(nv));
+  out["delta_energy_along_normals"] = along_normal;
+  out["targets"] = o.targets;
+  out["lambda"] = setup.config().lambda;
+  out["blurs"] = io::Json::array();
+  const pipeline::Stage2& stage = setup.stage();
+  TraceSettings reference = render::reference_pass_options().trace;
+
+  for (std::size_t bi = 0; bi < o.blurs.size(); ++bi) {
+    const double blur = o.blurs[bi];
+    setup.set_blur(blur, &truth);
+    const bool split = int(bi) == o.noise_blur_index;
+    cli::progress("home: blur " + std::to_string(blur) + " texels" + (split ? " (noise split by class)" : ""));
+    setup.set_positions(x0);
+    // the batches: rays, targets (photographs, or the true object along the same ray)
+    const int nb = std::max(o.batches, o.loss_batches);
+    std::vector<std::vector<BatchRay>> rays(static_cast<std::size_t>(nb));
+    std::vector<std::vector<Vec3f>> targets(static_cast<std::size_t>(nb));
+    for (int b = 0; b < nb; ++b) {
+      setup.batch(b, rays[std::size_t(b)], targets[std::size_t(b)]);
+      if (o.targets == "ray") {
+        const std::vector<RayEval> t = trace_rays(truth, rays[std::size_t(b)], reference);
+        for (std::size_t i = 0; i < t.size(); ++i) targets[std::size_t(b)][i] = Vec3f(t[i].radiance);
+      }
+    }
+    // brightness tertiles of the first batch's targets
+    std::vector<double> lum;
+    for (const Vec3f& c : targets[0]) lum.push_back(luminance(c));
+    std::sort(lum.begin(), lum.end());
+    const double t1 = lum[lum.size() / 3], t2 = lum[2 * lum.size() / 3];
+
+    std::vector<std::string> names = {"raw", "clipped", "depth_2"};
+    if (split) names.insert(names.end(), {"paths_1", "paths_2", "paths_3_4", "tir", "no_tir", "dark", "mid", "bright"});
+    std::vector<ComponentStats> comp(names.size()), comp_pre(3);
+    double sum_clipped_rays = 0.0;
+    for (int b = 0; b < o.batches; ++b) {
+      const auto& r = rays[std::size_t(b)];
+      const auto& tg = targets[std::size_t(b)];
+      const float inv_n = 1.0f / float(r.size());
+      const LossFn loss = [&](std::int32_t i, const Vec3f& L, Vec3f& dL) {
+        const auto l = stage.ray_loss(L, tg[std::size_t(i)], inv_n);
+        dL = l.adjoint;
+        return l.value;
+      };
+      std::int64_t clipped = 0;
+      const std::vector<double> g = vertex_gradient<float>(s, r, loss, setup.trace());
+      const std::vector<double> gc =
+          vertex_gradient<float>(s, r, loss, setup.trace(), setup.config().clip_geometry * inv_n, &clipped);
+      sum_clipped_rays += double(clipped) / double(r.size());
+      // fixed adjoints from the full-depth radiance; parts by depth and by ray subsets
+      const std::vector<RayEval> at_x = trace_rays(s, r, setup.trace());
+      std::vector<Vec3f> adj(r.size());
+      for (std::size_t i = 0; i < r.size(); ++i) adj[i] = stage.ray_loss(Vec3f(at_x[i].radiance), tg[i], inv_n).adjoint;
+      const auto fixed = [&](const std::vector<char>& keep) {
+        return LossFn([&adj, keep](std::int32_t i, const Vec3f&, Vec3f& dL) {
+          dL = keep[std::size_t(i)] ? adj[std::size_t(i)] : Vec3f(0.0f);
+          return 0.0;
+        });
+      };
+      const std::vector<char> all(r.size(), 1);
+      TraceSettings d1 = setup.trace(), d2 = setup.trace();
+      d1.max_depth = 1;
+      d2.max_depth = 2;
+      // the colour of the depth-4 tree, the vertex gradient through the paths of at most 2 interactions
+      const std::vector<double> g12 = vertex_gradient<float>(s, r, fixed(all), d2);
+      comp[0].add(g, delta_unit);
+      comp[1].add(gc, delta_unit);
+      comp[2].add(g12, delta_unit);
+      comp_pre[0].add(preconditioned(large_steps, g), delta_unit);
+      comp_pre[1].add(preconditioned(large_steps, gc), delta_unit);
+      comp_pre[2].add(preconditioned(large_steps, g12), delta_unit);
+      if (!split) continue;
+      const std::vector<double> g1 = vertex_gradient<float>(s, r, fixed(all), d1);
+      std::vector<double> g2(g.size()), g34(g.size());
+      for (std::size_t k = 0; k < g.size(); ++k) g2[k] = g12[k] - g1[k], g34[k] = g[k] - g12[k];
+      comp[3].add(g1, delta_unit);
+      comp[4].add(g2, delta_unit);
+      comp[5].add(g34, delta_unit);
+      std::vector<char> tir(r.size()), dark(r.size()), mid(r.size()), bright(r.size());
+      for (std::size_t i = 0; i < r.size(); ++i) {
+        tir[i] = at_x[i].stats.tir > 0;
+        const double l = luminance(tg[i]);
+        dark[i] = l < t1;
+        bright[i] = l >= t2;
+        mid[i] = !dark[i] && !bright[i];
+      }
+      const std::vector<double> gt = vertex_gradient<float>(s, r, fixed(tir), setup.trace());
+      std::vector<double> gnt(g.size());
+      for (std::size_t k = 0; k < g.size(); ++k) gnt[k] = g[k] - gt[k];
+      comp[6].add(gt, delta_unit);
+      comp[7].add(gnt, delta_unit);
+      comp[8].add(vertex_gradient<float>(s, r, fixed(dark), setup.trace()), delta_unit);
+      comp[9].add(vertex_gradient<float>(s, r, fixed(mid), setup.trace()), delta_unit);
+      comp[10].add(vertex_gradient<float>(s, r, fixed(bright), setup.trace()), delta_unit);
+    }
+    io::Json bj;
+    bj["blur_texels"] = blur;
+    bj["clipped_ray_fraction"] = sum_clipped_rays / double(std::max(1, o.batches));
+    io::Json cj = io::Json::object();
+    for (std::size_t c = 0; c < names.size(); ++c) cj[names[c]] = comp[c].json(delta_unit);
+    cj["raw_preconditioned"] = comp_pre[0].json(delta_unit);
+    cj["clipped_preconditioned"] = comp_pre[1].json(delta_unit);
+    cj["depth_2_preconditioned"] = comp_pre[2].json(delta_unit);
+    bj["gradient"] = cj;
+    if (split) bj["brightness_tertiles"] = {t1, t2};
+    // the deterministic loss along x + tΔ over loss_batches fixed batches, and at the true mesh
+    const auto mean_loss = [&](const HostScene& scene) {
+      double sum = 0.0;
+      for (int b = 0; b < o.loss_batches; ++b) {
+        const auto& r = rays[std::size_t(b)];
+        const float inv_n = 1.0f / float(r.size());
+        const std::vector<RayEval> e = trace_rays(scene, r, setup.trace());
+        for (std::size_t i = 0; i < r.size(); ++i)
+          sum += stage.ray_loss(Vec3f(e[i].radiance), targets[std::size_t(b)][i], inv_n).value;
+      }
+      return sum / double(std::max(1, o.loss_batches));
+    };
+    io::Json line = io::Json::array();
+    double best_t = 0.0, best_loss = 1e300;
+    for (int k = 0; k * o.t_step <= o.t_max + 1e-9; ++k) {
+      const double t = k * o.t_step;
+      std::vector<float> x(x0.size());
+      for (std::size_t q = 0; q < x0.size(); ++q) x[q] = float(double(x0[q]) + t * delta[q]);
+      setup.set_positions(x);
+      const double l = mean_loss(s);
+      if (l < best_loss) best_loss = l, best_t = t;
+      line.push_back({{"t", t}, {"loss", l}});
+    }
+    setup.set_positions(x0);
+    bj["loss_along_delta"] = line;
+    bj["argmin_t"] = best_t;
+    bj["loss_true_mesh"] = mean_loss(truth);
+    out["blurs"].push_back(bj);
+  }
+  setup.set_blur(0.0, &truth);
+  return out;
+}
+
+std::vector<double> parse_numbers(const std::string& text, const std::string& option) {
+  std::vector<double> v;
+  std::stringstream ss(text);
+  for (std::string part; std::getline(ss, part, ',');) {
+    char* end = nullptr;
+    const double x = std::strtod(part.c_str(), &end);
+    if (part.empty() || *end != '\0' || !std::isfinite(x)) throw CLI::ValidationError(option, "'" + text + "' is not a list of numbers");
+    v.push_back(x);
+  }
+  if (v.empty()) throw CLI::ValidationError(option, "is empty");
+  return v;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"stage2_diagnose: why stage 2's vertex refinement fails, in numbers (JSON on stdout)"};
+  app.require_subcommand(1);
+  CommonOptions common;
+  GradcheckOptions gc;
+  HomeOptions ho;
+  std::string fields = "inflate,wave1,wave3", steps = "1e-3,3e-4,1e-4,3e-5", blurs = "0,2,8,32";
+
+  CLI::App* g = app.add_subcommand("gradcheck", "AD against central differences of the stage-2 loss on one fixed batch");
+  add_common(g, common);
+  g->add_option("--fields", fields, "Displacement fields: inflate, wave1, wave3")->capture_default_str();
+  g->add_option("--steps", steps, "Central-difference steps (RMS vertex displacement)")->capture_default_str();
+  g->add_option("--tolerance", gc.ray_tolerance,
+                "A ray's FD agrees with its AD when |FD - AD| <= TOL (|AD| + 1e-3 RMS(AD))")->capture_default_str();
+  g->add_option("--reverse-tolerance", gc.reverse_tolerance,
+                "With --check: the bound on |reverse - forward| / sum over rays of |AD|")->capture_default_str();
+  g->add_option("--min-agreeing", gc.min_agreeing, "With --check: the fraction of rays (path counts unchanged at every "
+                "step) that must agree at some step")->capture_default_str();
+  g->add_flag("--check", gc.check, "Exit status 1 when too few rays agree or reverse and forward mode differ");
+  g->add_option("--inject", gc.inject, "Differentiate a deliberately different renderer (flat-normals): the check must fail");
+
+  CLI::App* h = app.add_subcommand("home", "Does −∇L point to the true surface? Cosines, noise, loss along Δ");
+  add_common(h, common);
+  h->add_option("--gt-mesh", ho.gt_mesh, "True mesh (default SCENE/gt/mesh.obj)");
+  h->add_option("--blurs", blurs, "Environment blurs, Gaussian sigma in texels of the map")->capture_default_str();
+  h->add_option("--batches", ho.batches, "Batches for the gradient statistics")->capture_default_str()->check(CLI::PositiveNumber);
+  h->add_option("--loss-batches", ho.loss_batches, "Fixed batches averaged for the loss along Δ")->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  h->add_option("--t-max", ho.t_max, "Loss along x + tΔ for t in [0, T_MAX]")->capture_default_str();
+  h->add_option("--t-step", ho.t_step, "Step of t")->capture_default_str()->check(CLI::PositiveNumber);
+  h->add_option("--targets", ho.targets, "photo: the training pixels; ray: the true object traced along the same ray "
+                                         "(depth 16, no pruning) under the same blurred environment")
+      ->capture_default_str()->check(CLI::IsMember({"photo", "ray"}));
+  h->add_option("--noise-blur", ho.noise_blur_index, "Index into --blurs whose gradient noise is split by class (-1: none)")
+      ->capture_default_str();
+  h->add_option("--write-projected", ho.write_projected, "Write the mesh moved to the true surface (x + Δ) as OBJ");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  try {
+    Setup setup(common);
+    io::Json result;
+    result["scene"] = common.scene.string();
+    result["mesh"] = common.mesh.string();
+    result["environment"] = setup.environment().description();
+    result["ior"] = setup.material().ior;
+    result["settings"] = {{"rays", common.rays}, {"views", common.views}, {"depth", common.depth},
+                          {"prune", common.prune}, {"seed", common.seed}, {"iteration", common.iteration},
+                          {"threads", ThreadPool::global().size()}};
+    bool passed = true;
+    if (g->parsed()) {
+      gc.fields.clear();
+      std::stringstream ss(fields);
+      for (std::string f; std::getline(ss, f, ',');)
+        if (!f.empty()) gc.fields.push_back(f);
+      gc.steps = parse_numbers(steps, "--steps");
+      result["gradcheck"] = gradcheck(setup, gc, passed);
+    } else {
+      ho.blurs = parse_numbers(blurs, "--blurs");
+      result["home"] = home(setup, ho);
+    }
+    std::cout << result.dump(2) << std::endl;
+    if (!passed) {
+      std::cerr << "stage2_diagnose: AD and finite differences disagree (--check)" << std::endl;
+      return 1;
+    }
+  } catch (const CLI::Error& e) {
+    return app.exit(e);
+  } catch (const std::exception& e) {
+    std::cerr << "stage2_diagnose: " << e.what() << std::endl;
+    return 2;
+  }
+  return 0;
+}
