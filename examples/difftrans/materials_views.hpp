@@ -11,7 +11,7 @@
 #include "command.hpp"
 
 #include "difftrans/io/dataset.hpp"
-#include "difftrans/render/background.hpp"
+#include "difftrans/render/views.hpp"
 #include "pipeline/materials.hpp"
 
 namespace difftrans::cli {
