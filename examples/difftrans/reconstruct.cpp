@@ -27,6 +27,7 @@ struct ReconstructOptions {
   std::string stages = "environment";
   MaskCliOptions masks;
   ExposureCliOptions exposure;
+  std::uint64_t seed = 0;  // 0: each stage's own default
 };
 
 }  // namespace
@@ -57,7 +58,12 @@ void add_reconstruct(CLI::App& app) {
   add_geometry_options(cmd, *geometry);
   add_materials_options(cmd, *materials);
   add_run_options(cmd, *run);
+  cmd->add_option("--seed", opt->seed,
+                  "Seed of every random choice of the stages (view batches, ray batches, jitter); with the same seed "
+                  "a run repeats bit for bit, on any number of threads (0: the stages' defaults)")
+      ->capture_default_str();
   cmd->callback([opt, environment, geometry, materials, run] {
+    if (opt->seed != 0) environment->field_seed = geometry->config.seed = materials->seed = opt->seed;
     std::stringstream ss(opt->stages);
     std::vector<std::string> stages;
     for (std::string s; std::getline(ss, s, ',');)

@@ -143,7 +143,7 @@ struct Stage2Config {
     v(Field{"box_lo", "", "the absorption grid's box, low corner"}, c.box_lo);
     v(Field{"box_hi", "", "the absorption grid's box, high corner"}, c.box_hi);
     v(Field{"sigma_init", "", "starting absorption coefficient"}, c.sigma_init);
-    v(Field{"training_depth", "", "tracing depth of the training rays"}, c.trace.max_depth);
+    v(Field{"training_depth", "--materials-depth", "tracing depth of the training rays", 1, 16}, c.trace.max_depth);
     v(Field{"training_prune", "", "throughput below which a training branch is pruned"}, c.trace.prune_throughput);
     v(Field{"training_samples", "", "samples of the absorption integral per segment"}, c.trace.integration.samples);
     v(Field{"relative_l2", "", "relative L2 colour loss instead of plain L2"}, c.relative_l2);

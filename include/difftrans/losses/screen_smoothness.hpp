@@ -14,6 +14,7 @@
 #include <utility>
 #include <vector>
 
+#include "difftrans/ad/block_gradients.hpp"
 #include "difftrans/ad/glm.hpp"
 #include "difftrans/ad/params.hpp"
 #include "difftrans/core/parallel.hpp"
@@ -170,32 +171,36 @@ inline void geometry_backward(const scene::TriangleMesh& m, const scene::Camera&
   set.buffers[1].size = std::int32_t(m.vertex_normals.size());
   set.buffers[1].gradient = grad_normals.data();
   const scene::MeshView view = m.view(0, 1);
-  parallel_for(r.pixels(), 256, [&](std::int64_t b, std::int64_t e, int) {
+  ad::BlockGradients blocks(set, r.pixels(), 32, 256);  // a fixed order of sums
+  parallel_for(blocks.count(), 1, [&](std::int64_t kb, std::int64_t ke, int) {
     ad::Tape<float> tape(1 << 10);
     std::vector<ad::LeafRecord> log(64);
-    ad::ParamReader<V> reader(&set, &tape, log.data(), std::int32_t(log.size()));
-    for (std::int64_t p = b; p < e; ++p) {
-      const std::int32_t t = r.triangle[std::size_t(p)];
-      if (t < 0) continue;
-      const float ad_d = depth_adjoint ? depth_adjoint[p] : 0.0f;
-      const float zero[3] = {0.0f, 0.0f, 0.0f};
-      const float* ad_n = normal_adjoint ? normal_adjoint + 3 * p : zero;
-      if (ad_d == 0.0f && ad_n[0] == 0.0f && ad_n[1] == 0.0f && ad_n[2] == 0.0f) continue;
-      tape.reset();
-      reader.clear();
-      const PixelGeometry<V> pg = pixel_geometry<V>(reader, view, cam, t, int(p % r.width), int(p / r.width),
-                                                    opt.face_normals, scene::NormalMode::parameter);
-      if (tape.overflowed() || reader.overflowed() || !pg.valid) {
+    for (std::int64_t k = kb; k < ke; ++k) {
+      ad::ParamReader<V> reader(&blocks.set(k), &tape, log.data(), std::int32_t(log.size()));
+      for (std::int64_t p = blocks.begin(k); p < blocks.end(k); ++p) {
+        const std::int32_t t = r.triangle[std::size_t(p)];
+        if (t < 0) continue;
+        const float ad_d = depth_adjoint ? depth_adjoint[p] : 0.0f;
+        const float zero[3] = {0.0f, 0.0f, 0.0f};
+        const float* ad_n = normal_adjoint ? normal_adjoint + 3 * p : zero;
+        if (ad_d == 0.0f && ad_n[0] == 0.0f && ad_n[1] == 0.0f && ad_n[2] == 0.0f) continue;
+        tape.reset();
         reader.clear();
-        continue;
+        const PixelGeometry<V> pg = pixel_geometry<V>(reader, view, cam, t, int(p % r.width), int(p / r.width),
+                                                      opt.face_normals, scene::NormalMode::parameter);
+        if (tape.overflowed() || reader.overflowed() || !pg.valid) {
+          reader.clear();
+          continue;
+        }
+        tape.zero_adjoints();
+        tape.seed(pg.depth, ad_d);
+        for (int c = 0; c < 3; ++c) tape.seed(pg.n[c], ad_n[c]);
+        tape.propagate();
+        reader.scatter();
       }
-      tape.zero_adjoints();
-      tape.seed(pg.depth, ad_d);
-      for (int c = 0; c < 3; ++c) tape.seed(pg.n[c], ad_n[c]);
-      tape.propagate();
-      reader.scatter();
     }
   });
+  blocks.reduce();
   m.normals_backward(grad_normals.data(), grad_positions);
 }
 

@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "difftrans/ad/block_gradients.hpp"
 #include "difftrans/ad/glm.hpp"
 #include "difftrans/ad/params.hpp"
 #include "difftrans/core/parallel.hpp"
@@ -247,7 +248,8 @@ struct SilhouetteStats {
 // Reverse mode on a prepared frame: adds dLoss/dposition (3 per vertex) into
 // grad_positions given dLoss/dmask per pixel. Only pixel pairs straddling the
 // silhouette contribute (the coverage is otherwise piecewise constant); one
-// small tape per crossing (two vertices, six leaves), scattered atomically.
+// small tape per crossing (two vertices, six leaves), summed in a fixed
+// order (ad/block_gradients.hpp): the same bits for any number of threads.
 inline void silhouette_backward(const SilhouetteFrame& f, const scene::TriangleMesh& m, const scene::Camera& cam,
                                 const float* mask_adjoint, float* grad_positions) {
   using V = ad::Var<float>;
@@ -256,24 +258,28 @@ inline void silhouette_backward(const SilhouetteFrame& f, const scene::TriangleM
   set.buffers[0].size = std::int32_t(m.positions.size());
   set.buffers[0].gradient = grad_positions;
   const ad::ParamSource pos{m.positions.data(), std::int32_t(m.positions.size()), 0};
-  parallel_for(std::int64_t(f.crossings.size()), 256, [&](std::int64_t b, std::int64_t e, int) {
+  ad::BlockGradients blocks(set, std::int64_t(f.crossings.size()), 32, 256);  // a fixed order of sums
+  parallel_for(blocks.count(), 1, [&](std::int64_t kb, std::int64_t ke, int) {
     ad::Tape<float> tape(256);
     ad::LeafRecord log[8];
-    ad::ParamReader<V> reader(&set, &tape, log, 8);
-    for (std::int64_t i = b; i < e; ++i) {
-      const SilhouetteCrossing& c = f.crossings[std::size_t(i)];
-      const float ag = mask_adjoint[c.other], al = mask_adjoint[c.covered];
-      if (ag == 0.0f && al == 0.0f) continue;
-      tape.reset();
-      reader.clear();
-      const PairCoverage<V> pc = crossing_coverage<V>(reader, pos, cam, c);
-      tape.zero_adjoints();
-      tape.seed(pc.gain, ag);
-      tape.seed(pc.loss, -al);
-      tape.propagate();
-      reader.scatter();
+    for (std::int64_t k = kb; k < ke; ++k) {
+      ad::ParamReader<V> reader(&blocks.set(k), &tape, log, 8);
+      for (std::int64_t i = blocks.begin(k); i < blocks.end(k); ++i) {
+        const SilhouetteCrossing& c = f.crossings[std::size_t(i)];
+        const float ag = mask_adjoint[c.other], al = mask_adjoint[c.covered];
+        if (ag == 0.0f && al == 0.0f) continue;
+        tape.reset();
+        reader.clear();
+        const PairCoverage<V> pc = crossing_coverage<V>(reader, pos, cam, c);
+        tape.zero_adjoints();
+        tape.seed(pc.gain, ag);
+        tape.seed(pc.loss, -al);
+        tape.propagate();
+        reader.scatter();
+      }
     }
   });
+  blocks.reduce();
 }
 
 // The same from scratch (rasterize, find crossings, backward); returns the mask.

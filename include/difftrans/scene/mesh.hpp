@@ -7,6 +7,7 @@
 #include <utility>
 #include <vector>
 
+#include "difftrans/ad/block_gradients.hpp"
 #include "difftrans/ad/glm.hpp"
 #include "difftrans/ad/params.hpp"
 #include "difftrans/core/parallel.hpp"
@@ -330,23 +331,27 @@ class TriangleMesh {
     set.buffers[0].size = std::int32_t(positions.size());
     set.buffers[0].gradient = grad_positions;
     const MeshView m = view(0);
-    parallel_for(num_vertices(), 256, [&](std::int64_t b, std::int64_t e, int) {
+    ad::BlockGradients blocks(set, num_vertices(), 32, 256);  // a fixed order of sums
+    parallel_for(blocks.count(), 1, [&](std::int64_t kb, std::int64_t ke, int) {
       ad::Tape<float> tape(1 << 14);
       std::vector<ad::LeafRecord> log(1 << 12);
-      ad::ParamReader<V> reader(&set, &tape, log.data(), std::int32_t(log.size()));
-      for (std::int64_t v = b; v < e; ++v) {
-        const float* g = grad_normals + 3 * v;
-        if (g[0] == 0.0f && g[1] == 0.0f && g[2] == 0.0f) continue;
-        tape.reset();
-        reader.clear();
-        const Vec3<V> n = vertex_normal<V>(reader, m, std::int32_t(v));
-        if (tape.overflowed() || reader.overflowed()) continue;  // valence beyond 1000: skipped
-        tape.zero_adjoints();
-        for (int c = 0; c < 3; ++c) tape.seed(n[c], g[c]);
-        tape.propagate();
-        reader.scatter();
+      for (std::int64_t k = kb; k < ke; ++k) {
+        ad::ParamReader<V> reader(&blocks.set(k), &tape, log.data(), std::int32_t(log.size()));
+        for (std::int64_t v = blocks.begin(k); v < blocks.end(k); ++v) {
+          const float* g = grad_normals + 3 * v;
+          if (g[0] == 0.0f && g[1] == 0.0f && g[2] == 0.0f) continue;
+          tape.reset();
+          reader.clear();
+          const Vec3<V> n = vertex_normal<V>(reader, m, std::int32_t(v));
+          if (tape.overflowed() || reader.overflowed()) continue;  // valence beyond 1000: skipped
+          tape.zero_adjoints();
+          for (int c = 0; c < 3; ++c) tape.seed(n[c], g[c]);
+          tape.propagate();
+          reader.scatter();
+        }
       }
     });
+    blocks.reduce();
   }
 
   // The view for the generic path; position_buffer >= 0 makes the positions
