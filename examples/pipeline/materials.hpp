@@ -9,6 +9,9 @@
 // pixel) the colour L2 and tone terms of photometric.hpp; on the absorption
 // grid the smoothness and volume terms of absorption.hpp; on the vertices,
 // every mask_every iterations, stage 1's mask L1 + edge-normal refinement loss.
+//
+// Length: the fit (Stage2) is one state — schedule, environment blur, the
+// three optimizers and their checkpoint — next to the config it reads.
 #pragma once
 
 #include <algorithm>
@@ -30,6 +33,7 @@
 #include "difftrans/render/host_scene.hpp"
 #include "difftrans/render/ray_batch.hpp"
 #include "difftrans/scene/absorption.hpp"
+#include "difftrans/scene/envmap_blur.hpp"
 #include "pipeline/config.hpp"
 #include "pipeline/geometry_refine.hpp"
 
@@ -72,6 +76,17 @@ struct Stage2Config {
   // slow rate (the paper's 1e-4: the absorption finds its level first, or the
   // IoR drifts to explain the darkening — measured on the test sphere)
   int freeze_geometry = 300;
+  // The vertices move for this many iterations after the warm-up, the IoR
+  // and absorption held still; then the materials settle on the final mesh.
+  int geometry_iterations = 500;
+  // Coarse to fine: while the vertices move, the environment is blurred by a
+  // Gaussian of geometry_blur degrees, halved every blur_halving iterations
+  // (below half a texel: sharp). On spot-clear the loss along the way from the
+  // stage-1 mesh to the true surface is jagged with the recovered 512-wide map
+  // and convex, with its minimum at the true surface, once blurred by 8 to 32
+  // texels, 6 to 23 degrees (docs/stage2-diagnostics.md). A distant map only.
+  float geometry_blur = 11.25f;
+  int blur_halving = 100;
   int mask_every = 5;             // the mask + edge-normal step on the vertices, once geometry moves
   int mask_views = 4;
   // learning rates (Adam; positions: AdamUniform on u = (I + λL) x), decayed as lr·10^(−decay·i)
@@ -121,6 +136,17 @@ struct Stage2Config {
     v(Field{"freeze_geometry", "--materials-freeze",
             "warm-up iterations (IoR at lr 1e-4, geometry frozen) before the joint phase", 0, big},
       c.freeze_geometry);
+    v(Field{"geometry_iterations", "--materials-geometry-iterations",
+            "iterations the vertices move after the warm-up (materials held still), before the materials settle", 0,
+            big},
+      c.geometry_iterations);
+    v(Field{"geometry_blur_degrees", "--materials-blur",
+            "environment blur (Gaussian sigma, degrees) when the vertices start moving, halved every "
+            "--materials-blur-halving iterations (0: sharp)",
+            0, 180},
+      c.geometry_blur);
+    v(Field{"blur_halving", "--materials-blur-halving", "iterations per halving of the environment blur", 1, big},
+      c.blur_halving);
     v(Field{"mask_every", "", "iterations between mask steps on the vertices"}, c.mask_every);
     v(Field{"mask_views", "", "views per mask step"}, c.mask_views);
     v(Field{"lr_ior_frozen", "", "IoR learning rate in the warm-up"}, c.lr_ior_frozen);
@@ -162,6 +188,7 @@ struct Stage2Stats {
   float ior = 0.0f;
   Vec3f mean_sigma{0.0f};
   bool geometry_moving = false;
+  float environment_blur = 0.0f;  // σ in texels of the map this iteration
   std::int64_t rays = 0, skipped_rays = 0, overflowed_rays = 0, clipped_rays = 0;
   double seconds = 0.0, trace_seconds = 0.0;
 };
@@ -188,6 +215,7 @@ class Stage2 {
     scene_.set_grid_absorption(Vec3i(config_.absorption_res), config_.box_lo, config_.box_hi,
                                std::vector<float>(3 * nv, scene::raw_from_sigma(config_.sigma_init)));
     for (bool& d : scene_.differentiate) d = false;
+    if (scene_.environment_width > 0 && !scene_.near_field) sharp_environment_ = scene_.environment;
     // the object pixels of every view, once
     pixels_.resize(views_.size());
     for (std::size_t v = 0; v < views_.size(); ++v) {
@@ -268,13 +296,18 @@ class Stage2 {
     const int it = iteration_;
     Stage2Stats st;
     st.iteration = it;
-    st.geometry_moving = config_.optimize_positions && it >= config_.freeze_geometry;
+    st.geometry_moving = config_.optimize_positions && it >= config_.freeze_geometry &&
+                         it < config_.freeze_geometry + config_.geometry_iterations;
+    // the materials hold still while the vertices move
+    const bool materials_moving = !st.geometry_moving;
+    st.environment_blur = st.geometry_moving ? blur_at(it) : 0.0f;
+    set_environment_blur(st.environment_blur);
     if (st.geometry_moving && !positions_started_) {
       positions_.reset(scene_.mesh.positions, scene_.mesh.triangles);
       positions_started_ = true;
     }
-    scene_.differentiate[param_ior] = config_.optimize_ior;
-    scene_.differentiate[param_absorption] = config_.optimize_absorption;
+    scene_.differentiate[param_ior] = config_.optimize_ior && materials_moving;
+    scene_.differentiate[param_absorption] = config_.optimize_absorption && materials_moving;
     scene_.differentiate[param_positions] = st.geometry_moving;
     scene_.differentiate[param_normals] = st.geometry_moving;
     scene_.differentiate[param_environment] = false;
@@ -316,7 +349,7 @@ class Stage2 {
     st.overflowed_rays = rb.stats.overflowed_rays;
 
     // absorption regularizers
-    if (config_.optimize_absorption) {
+    if (config_.optimize_absorption && materials_moving) {
       const auto [tv, vol] = losses::absorption_regularizers(scene_.absorption_raw, scene_.absorption_res, w.smoothness,
                                                      w.volume, grad.absorption);
       st.smoothness = tv;
@@ -346,13 +379,15 @@ class Stage2 {
     const float decay = std::pow(10.0f, -config_.lr_decay * float(it));
     // a new phase for the IoR: its moments restart, or the large gradients of
     // the warm-up (absorption still wrong) keep its steps small for hundreds of iterations
-    if (it == config_.freeze_geometry) ior_adam_.reset(1);
-    if (config_.optimize_ior && std::isfinite(grad.ior[0])) {
+    if (it == config_.freeze_geometry ||
+        (config_.optimize_positions && it == config_.freeze_geometry + config_.geometry_iterations))
+      ior_adam_.reset(1);
+    if (config_.optimize_ior && materials_moving && std::isfinite(grad.ior[0])) {
       ior_adam_.step(&scene_.ior, grad.ior.data(),
                      decay * (it >= config_.freeze_geometry ? config_.lr_ior : config_.lr_ior_frozen));
       scene_.ior = std::clamp(scene_.ior, config_.ior_min, config_.ior_max);
     }
-    if (config_.optimize_absorption) {
+    if (config_.optimize_absorption && materials_moving) {
       for (float& g : grad.absorption)
         if (!std::isfinite(g)) g = 0.0f;
       absorption_adam_.step(scene_.absorption_raw.data(), grad.absorption.data(), decay * config_.lr_absorption);
@@ -464,7 +499,23 @@ class Stage2 {
   }
 
  private:
+  // The environment blur of iteration it (within the geometry phase).
+  float blur_at(int it) const {
+    if (!(config_.geometry_blur > 0.0f) || sharp_environment_.empty()) return 0.0f;
+    const int halvings = (it - config_.freeze_geometry) / std::max(1, config_.blur_halving);
+    const float texels = config_.geometry_blur / 360.0f * float(scene_.environment_width);
+    const float sigma = std::ldexp(texels, -std::min(halvings, 60));
+    return sigma < 0.5f ? 0.0f : sigma;
+  }
+  void set_environment_blur(float sigma) {
+    if (sharp_environment_.empty() || sigma == environment_blur_) return;
+    scene_.environment = scene::blur_equirect(sharp_environment_, scene_.environment_width, scene_.environment_height, sigma);
+    environment_blur_ = sigma;
+  }
+
   HostScene& scene_;
+  std::vector<float> sharp_environment_;  // the map as given (distant maps only)
+  float environment_blur_ = 0.0f;
   std::vector<Stage2View> views_;
   std::vector<pipeline::Stage1View> mask_views_;
   Stage2Config config_;

@@ -10,14 +10,6 @@
 
 namespace difftrans::scene {
 
-// the parameter sources and value helpers of ad/, used unqualified below
-using ad::all_finite;
-using ad::detach;
-using ad::load;
-using ad::load3;
-using ad::ParamSource;
-using ad::value_of;
-
 // Parameterization: the field stores raw parameters p (any real), and the
 // absorption coefficient is sigma = softplus(p) >= 0, applied in S where p is
 // read, so an optimizer can never make it negative. Homogeneous: 3 raw values
@@ -37,7 +29,7 @@ enum class AbsorptionKind : int { none, homogeneous, grid };
 
 struct AbsorptionField {
   AbsorptionKind kind = AbsorptionKind::none;
-  ParamSource params;  // raw parameters p (sigma = softplus(p))
+  ad::ParamSource params;  // raw parameters p (sigma = softplus(p))
   Vec3f lo{0.0f}, hi{1.0f};
   Vec3i res{2, 2, 2};  // grid vertices per axis, each >= 2
 };
@@ -68,7 +60,7 @@ inline AbsorptionField no_absorption() { return AbsorptionField{}; }
 inline AbsorptionField homogeneous_absorption(const float* raw_rgb, int buffer = -1) {
   AbsorptionField f;
   f.kind = AbsorptionKind::homogeneous;
-  f.params = ParamSource{raw_rgb, 3, buffer};
+  f.params = ad::ParamSource{raw_rgb, 3, buffer};
   return f;
 }
 
@@ -76,7 +68,7 @@ inline AbsorptionField grid_absorption(const float* raw, const Vec3i& res, const
                                        int buffer = -1) {
   AbsorptionField f;
   f.kind = AbsorptionKind::grid;
-  f.params = ParamSource{raw, std::int32_t(res.x) * res.y * res.z * 3, buffer};
+  f.params = ad::ParamSource{raw, std::int32_t(res.x) * res.y * res.z * 3, buffer};
   f.lo = lo;
   f.hi = hi;
   f.res = res;
@@ -104,7 +96,7 @@ DT_HOST_DEVICE void read_cell(Reader& reader, const AbsorptionField& f, const Ve
   for (int c = 0; c < 8; ++c) {
     const int i = cell.x + (c & 1), j = cell.y + ((c >> 1) & 1), k = cell.z + ((c >> 2) & 1);
     const std::int32_t base = grid_index(f.res, i, j, k, 0);
-    for (int ch = 0; ch < 3; ++ch) out.corner[c][ch] = softplus(load<S>(reader, f.params, base + ch));
+    for (int ch = 0; ch < 3; ++ch) out.corner[c][ch] = softplus(ad::load<S>(reader, f.params, base + ch));
   }
 }
 
@@ -208,7 +200,7 @@ DT_HOST_DEVICE S clip_end(const Vec3<S>& a, const Vec3<S>& b, int axis, ad::scal
   using T = ad::scalar_t<S>;
   if (axis < 0) return S(t_value);
   // the face (lo or hi) whose crossing parameter is t_value: the nearer one
-  const T av = value_of(a[axis]), d = value_of(b[axis]) - av;
+  const T av = ad::value_of(a[axis]), d = ad::value_of(b[axis]) - av;
   const T tl = (T(lo[axis]) - av) / d, th = (T(hi[axis]) - av) / d;
   const T face = abs(tl - t_value) <= abs(th - t_value) ? T(lo[axis]) : T(hi[axis]);
   return (face - a[axis]) / (b[axis] - a[axis]);
@@ -232,7 +224,7 @@ DT_HOST_DEVICE Vec3<S> integrate_grid_exact(Reader& reader, const AbsorptionFiel
   using T = ad::scalar_t<S>;
   const GridFrame<T> g = grid_frame<T>(f);
   const Vec3<S> ab = b - a;
-  const Vec3<T> av = value_of(a), abv = value_of(b) - av;
+  const Vec3<T> av = ad::value_of(a), abv = ad::value_of(b) - av;
   Vec3<T> ga, dg;  // grid coordinates of a, and their rate per unit t
   for (int ax = 0; ax < 3; ++ax) {
     ga[ax] = (av[ax] - g.lo[ax]) * g.inv_cell[ax];
@@ -318,7 +310,7 @@ DT_HOST_DEVICE Vec3<S> integrate_grid_samples(Reader& reader, const AbsorptionFi
   for (int k = 0; k < samples; ++k) {
     const S t = t_first + span * ((T(k) + T(offset)) / T(samples));
     const Vec3<S> p = grid_point(g, a, ab, t);
-    const Vec3i cell = cell_of(g, value_of(p));
+    const Vec3i cell = cell_of(g, ad::value_of(p));
     if (!have || cell != cs.cell) {
       read_cell(reader, f, cell, cs);
       have = true;
@@ -341,16 +333,16 @@ DT_HOST_DEVICE Vec3<S> sigma_at(Reader& reader, const AbsorptionField& f, const 
   using T = ad::scalar_t<S>;
   if (f.kind == AbsorptionKind::none) return Vec3<S>(S(0), S(0), S(0));
   if (f.kind == AbsorptionKind::homogeneous) {
-    const Vec3<S> p = load3<S>(reader, f.params, 0);
+    const Vec3<S> p = ad::load3<S>(reader, f.params, 0);
     return Vec3<S>(softplus(p.x), softplus(p.y), softplus(p.z));
   }
-  const Vec3<T> xv = value_of(x);
+  const Vec3<T> xv = ad::value_of(x);
   for (int ax = 0; ax < 3; ++ax)
     if (!(xv[ax] >= T(f.lo[ax]) && xv[ax] <= T(f.hi[ax]))) return Vec3<S>(S(0), S(0), S(0));
   const detail::GridFrame<T> g = detail::grid_frame<T>(f);
   Vec3<S> p;
   for (int ax = 0; ax < 3; ++ax) p[ax] = (x[ax] - g.lo[ax]) * g.inv_cell[ax];
-  const Vec3i cell = detail::cell_of(g, value_of(p));
+  const Vec3i cell = detail::cell_of(g, ad::value_of(p));
   detail::CellSigma<S> cs;
   detail::read_cell(reader, f, cell, cs);
   S w[8];
@@ -372,8 +364,8 @@ DT_HOST_DEVICE Vec3<S> optical_depth(Reader& reader, const AbsorptionField& f, c
   // safe_sqrt: a zero-length segment has length 0 and a zero (not NaN) derivative
   const S length = safe_sqrt(glm::dot(ab, ab));
   if (f.kind == AbsorptionKind::homogeneous) return sigma_at(reader, f, a) * length;
-  if (!(value_of(length) > T(0))) return zero;
-  const detail::Clip<T> clip = detail::clip_segment(value_of(a), value_of(b), f.lo, f.hi);
+  if (!(ad::value_of(length) > T(0))) return zero;
+  const detail::Clip<T> clip = detail::clip_segment(ad::value_of(a), ad::value_of(b), f.lo, f.hi);
   if (!clip.hit) return zero;
   const Vec3<S> per_t = integration.samples > 0
                             ? detail::integrate_grid_samples(reader, f, a, b, clip, integration.samples,

@@ -10,14 +10,6 @@
 
 namespace difftrans::scene {
 
-// the parameter sources and value helpers of ad/, used unqualified below
-using ad::all_finite;
-using ad::detach;
-using ad::load;
-using ad::load3;
-using ad::ParamSource;
-using ad::value_of;
-
 // Convention (docs/conventions.md), +Y up: direction d = (x, y, z) maps to
 //   u = 0.5 + atan2(x, -z) / (2 pi)   in [0, 1], to the right,
 //   v = acos(y) / pi                  in [0, 1], down (v = 0 is +Y).
@@ -42,7 +34,7 @@ enum class EnvironmentKind : int { constant, equirect };
 
 struct EnvMap {
   EnvironmentKind kind = EnvironmentKind::constant;
-  ParamSource texels;  // constant: 3 values (RGB); equirect: width * height * 3
+  ad::ParamSource texels;  // constant: 3 values (RGB); equirect: width * height * 3
   int width = 0, height = 0;
 };
 
@@ -51,13 +43,13 @@ struct EnvMap {
 inline EnvMap constant_environment(const float* rgb, int buffer = -1) {
   EnvMap e;
   e.kind = EnvironmentKind::constant;
-  e.texels = ParamSource{rgb, 3, buffer};
+  e.texels = ad::ParamSource{rgb, 3, buffer};
   return e;
 }
 inline EnvMap equirect_environment(const float* texels, int width, int height, int buffer = -1) {
   EnvMap e;
   e.kind = EnvironmentKind::equirect;
-  e.texels = ParamSource{texels, std::int32_t(width) * height * 3, buffer};
+  e.texels = ad::ParamSource{texels, std::int32_t(width) * height * 3, buffer};
   e.width = width;
   e.height = height;
   return e;
@@ -77,7 +69,7 @@ DT_HOST_DEVICE S safe_atan2(const S& y, const S& x) {
     return atan2(y, x);
   } else {
     using T = ad::scalar_t<S>;
-    const T yv = value_of(y), xv = value_of(x), r2 = xv * xv + yv * yv;
+    const T yv = ad::value_of(y), xv = ad::value_of(x), r2 = xv * xv + yv * yv;
     const T inv = T(1) / (r2 > ad::safe_sqrt_eps<T> ? r2 : ad::safe_sqrt_eps<T>);
     // d atan2(y, x) = (x dy - y dx) / max(x² + y², eps)
     return ad::detail::binary(y, x, T(atan2(yv, xv)), xv * inv, -yv * inv);
@@ -119,7 +111,7 @@ template <class S>
 DT_HOST_DEVICE Footprint<S> bilinear_footprint(int w, int h, const Vec2<S>& uv) {
   using T = ad::scalar_t<S>;
   Footprint<S> f;
-  f.valid = w >= 1 && h >= 1 && isfinite(value_of(uv.x)) && isfinite(value_of(uv.y));
+  f.valid = w >= 1 && h >= 1 && isfinite(ad::value_of(uv.x)) && isfinite(ad::value_of(uv.y));
   if (!f.valid) {
     for (int k = 0; k < 4; ++k) {
       f.texel[k] = 0;
@@ -129,7 +121,7 @@ DT_HOST_DEVICE Footprint<S> bilinear_footprint(int w, int h, const Vec2<S>& uv) 
   }
   // columns: wrap around the seam
   const S fu = uv.x * T(w) - T(0.5);
-  const T fu_floor = floor(value_of(fu));
+  const T fu_floor = floor(ad::value_of(fu));
   const S tu = fu - fu_floor;  // in [0, 1)
   // fu_floor mod w, in floating point so any finite u is safe
   const T wrapped = fu_floor - T(w) * floor(fu_floor / T(w));
@@ -138,7 +130,7 @@ DT_HOST_DEVICE Footprint<S> bilinear_footprint(int w, int h, const Vec2<S>& uv) 
   const int c1 = c0 + 1 == w ? 0 : c0 + 1;
   // rows: clamp at the poles
   const S fv = clamp(uv.y * T(h) - T(0.5), S(0), S(T(h - 1)));
-  int r0 = int(floor(value_of(fv)));
+  int r0 = int(floor(ad::value_of(fv)));
   if (r0 > h - 2) r0 = h - 2 < 0 ? 0 : h - 2;
   const int r1 = r0 + 1 < h ? r0 + 1 : r0;
   const S tv = fv - T(r0);  // in [0, 1] (0 when h == 1)
@@ -156,11 +148,11 @@ DT_HOST_DEVICE Footprint<S> bilinear_footprint(int w, int h, const Vec2<S>& uv) 
 // Bilinear lookup at (u, v) of an equirectangular map, generic over S.
 template <class S, class Reader>
 DT_HOST_DEVICE Vec3<S> lookup_uv(Reader& reader, const EnvMap& env, const Vec2<S>& uv) {
-  if (env.kind == EnvironmentKind::constant) return load3<S>(reader, env.texels, 0);
+  if (env.kind == EnvironmentKind::constant) return ad::load3<S>(reader, env.texels, 0);
   const Footprint<S> f = bilinear_footprint(env.width, env.height, uv);
   if (!f.valid) return Vec3<S>(S(0), S(0), S(0));
   Vec3<S> t[4];
-  for (int k = 0; k < 4; ++k) t[k] = load3<S>(reader, env.texels, f.texel[k]);
+  for (int k = 0; k < 4; ++k) t[k] = ad::load3<S>(reader, env.texels, f.texel[k]);
   Vec3<S> c;
   for (int k = 0; k < 3; ++k) c[k] = t[0][k] * f.weight[0] + t[1][k] * f.weight[1] + t[2][k] * f.weight[2] + t[3][k] * f.weight[3];
   return c;
@@ -170,7 +162,7 @@ DT_HOST_DEVICE Vec3<S> lookup_uv(Reader& reader, const EnvMap& env, const Vec2<S
 // over S: differentiable with respect to d and, through the reader, the texels.
 template <class S, class Reader>
 DT_HOST_DEVICE Vec3<S> lookup(Reader& reader, const EnvMap& env, const Vec3<S>& d) {
-  if (env.kind == EnvironmentKind::constant) return load3<S>(reader, env.texels, 0);
+  if (env.kind == EnvironmentKind::constant) return ad::load3<S>(reader, env.texels, 0);
   return lookup_uv(reader, env, direction_to_uv(d));
 }
 

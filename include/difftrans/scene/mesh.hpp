@@ -16,14 +16,6 @@
 
 namespace difftrans::scene {
 
-// the parameter sources and value helpers of ad/, used unqualified below
-using ad::all_finite;
-using ad::detach;
-using ad::load;
-using ad::load3;
-using ad::ParamSource;
-using ad::value_of;
-
 // Vertex normal (the paper): the mean of the unit normals of the faces around
 // the vertex, normalized. Faces are counter-clockwise seen from the side the
 // normal points to. Zero-area faces have no normal and are left out; a vertex
@@ -45,14 +37,14 @@ using ad::value_of;
 // vertex_normals 3 * num_vertices, vf_offsets num_vertices + 1 and vf_faces:
 // the faces around vertex v are vf_faces[vf_offsets[v] .. vf_offsets[v + 1]).
 struct MeshView {
-  ParamSource positions;
+  ad::ParamSource positions;
   const std::int32_t* triangles = nullptr;
   const float* vertex_normals = nullptr;
   // The same normals as a parameter source: when differentiable (buffer >= 0)
   // an AD pass reads them as leaves of their own, and the caller folds their
   // gradient back into the positions once per pass (normals_backward), which
   // is far cheaper than recomputing every hit's one-rings on the tape.
-  ParamSource normals;
+  ad::ParamSource normals;
   const std::int32_t* vf_offsets = nullptr;
   const std::int32_t* vf_faces = nullptr;
   std::int32_t num_vertices = 0;
@@ -106,9 +98,9 @@ DT_HOST_DEVICE TriangleHit<S> intersect_triangle(const Vec3<S>& o, const Vec3<S>
   const Vec3<S> e1 = p1 - p0, e2 = p2 - p0;
   const Vec3<S> pv = glm::cross(d, e2);
   const S det = glm::dot(e1, pv);
-  const Vec3<T> e1v = value_of(e1), e2v = value_of(e2), dv = value_of(d);
+  const Vec3<T> e1v = ad::value_of(e1), e2v = ad::value_of(e2), dv = ad::value_of(d);
   const T scale = sqrt(glm::dot(e1v, e1v) * glm::dot(e2v, e2v) * glm::dot(dv, dv));
-  const T detv = value_of(det);
+  const T detv = ad::value_of(det);
   if (!(abs(detv) > triangle_det_eps<T> * scale) || !isfinite(detv) || !isfinite(scale)) return h;
   const S inv = S(1) / det;
   const Vec3<S> s = o - p0;
@@ -116,12 +108,12 @@ DT_HOST_DEVICE TriangleHit<S> intersect_triangle(const Vec3<S>& o, const Vec3<S>
   h.b1 = glm::dot(s, pv) * inv;
   h.b2 = glm::dot(d, qv) * inv;
   h.t = glm::dot(e2, qv) * inv;
-  h.valid = isfinite(value_of(h.t)) && isfinite(value_of(h.b1)) && isfinite(value_of(h.b2));
+  h.valid = isfinite(ad::value_of(h.t)) && isfinite(ad::value_of(h.b1)) && isfinite(ad::value_of(h.b2));
   if (!h.valid) {
     h.t = h.b1 = h.b2 = S(0);
     return h;
   }
-  h.inside = h.b1 >= 0 && h.b2 >= 0 && value_of(h.b1) + value_of(h.b2) <= T(1) && h.t >= 0;
+  h.inside = h.b1 >= 0 && h.b2 >= 0 && ad::value_of(h.b1) + ad::value_of(h.b2) <= T(1) && h.t >= 0;
   return h;
 }
 
@@ -139,7 +131,7 @@ struct PositionCache {
   DT_HOST_DEVICE Vec3<S> get(Reader& reader, const MeshView& m, std::int32_t v) {
     for (int k = 0; k < count; ++k)
       if (id[k] == v) return p[k];
-    const Vec3<S> q = load3<S>(reader, m.positions, v);
+    const Vec3<S> q = ad::load3<S>(reader, m.positions, v);
     if (count < N) {
       id[count] = v;
       p[count] = q;
@@ -155,7 +147,7 @@ DT_HOST_DEVICE bool unit_face_normal(const Vec3<S>& p0, const Vec3<S>& p1, const
   using T = ad::scalar_t<S>;
   const Vec3<S> c = glm::cross(p1 - p0, p2 - p0);
   const S len2 = glm::dot(c, c);
-  if (!(value_of(len2) > T(0)) || !isfinite(value_of(len2))) return false;
+  if (!(ad::value_of(len2) > T(0)) || !isfinite(ad::value_of(len2))) return false;
   n = c * (S(1) / sqrt(len2));
   return true;
 }
@@ -165,7 +157,7 @@ template <class S>
 DT_HOST_DEVICE bool normalize_nonzero(Vec3<S>& v) {
   using T = ad::scalar_t<S>;
   const S len2 = glm::dot(v, v);
-  if (!(value_of(len2) > T(0)) || !isfinite(value_of(len2))) return false;
+  if (!(ad::value_of(len2) > T(0)) || !isfinite(ad::value_of(len2))) return false;
   v = v * (S(1) / sqrt(len2));
   return true;
 }
@@ -191,7 +183,7 @@ DT_HOST_DEVICE Vec3<S> vertex_normal_cached(Reader& reader, const MeshView& m, s
 // The three vertex positions of triangle `tri`, read through the reader.
 template <class S, class Reader>
 DT_HOST_DEVICE void triangle_positions(Reader& reader, const MeshView& m, std::int32_t tri, Vec3<S> p[3]) {
-  for (int k = 0; k < 3; ++k) p[k] = load3<S>(reader, m.positions, m.triangles[3 * tri + k]);
+  for (int k = 0; k < 3; ++k) p[k] = ad::load3<S>(reader, m.positions, m.triangles[3 * tri + k]);
 }
 
 // The normal of vertex v recomputed in S from its one-ring (needs the adjacency).
@@ -234,7 +226,7 @@ DT_HOST_DEVICE SurfacePoint<S> surface_point_cached(Reader& reader, const MeshVi
   if (!sp.valid) sp.ng = Vec3<S>(S(0), S(0), S(0));
   Vec3<S> vn[3];
   if (use_normal_parameter<S>(m, mode)) {
-    for (int k = 0; k < 3; ++k) vn[k] = load3<S>(reader, m.normals, idx[k]);
+    for (int k = 0; k < 3; ++k) vn[k] = ad::load3<S>(reader, m.normals, idx[k]);
   } else if (use_one_ring<S>(m, mode)) {
     for (int k = 0; k < 3; ++k) vn[k] = vertex_normal_cached(reader, m, idx[k], cache);
   } else if (m.vertex_normals) {
@@ -359,10 +351,10 @@ class TriangleMesh {
   // vertex normals (two-level normals, see MeshView::normals).
   MeshView view(int position_buffer = -1, int normal_buffer = -1) const {
     MeshView m;
-    m.positions = ParamSource{positions.data(), std::int32_t(positions.size()), position_buffer};
+    m.positions = ad::ParamSource{positions.data(), std::int32_t(positions.size()), position_buffer};
     m.triangles = triangles.data();
     m.vertex_normals = vertex_normals.size() == positions.size() ? vertex_normals.data() : nullptr;
-    m.normals = ParamSource{m.vertex_normals, m.vertex_normals ? std::int32_t(vertex_normals.size()) : 0,
+    m.normals = ad::ParamSource{m.vertex_normals, m.vertex_normals ? std::int32_t(vertex_normals.size()) : 0,
                             m.vertex_normals ? normal_buffer : -1};
     m.vf_offsets = vf_offsets.empty() ? nullptr : vf_offsets.data();
     m.vf_faces = vf_faces.data();
