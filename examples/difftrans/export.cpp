@@ -12,7 +12,7 @@
 #include <memory>
 #include <sstream>
 
-#include "difftrans/accel/embree.hpp"
+#include "difftrans/render/host_scene.hpp"
 #include "difftrans/scene/mesh.hpp"
 #include "stage_output.hpp"
 
@@ -44,8 +44,8 @@ class InsideTest {
   explicit InsideTest(const io::Mesh& mesh) : mesh_(mesh) {
     for (const Vec3f& p : mesh.positions) positions_.insert(positions_.end(), {p.x, p.y, p.z});
     for (const Vec3i& t : mesh.triangles) triangles_.insert(triangles_.end(), {t.x, t.y, t.z});
-    accel_ = std::make_unique<accel::EmbreeScene>(positions_.data(), std::int32_t(mesh.positions.size()),
-                                                  triangles_.data(), std::int32_t(mesh.triangles.size()), "export");
+    accel_ = std::make_unique<render::HostAccel>(positions_.data(), std::int32_t(mesh.positions.size()),
+                                                 triangles_.data(), std::int32_t(mesh.triangles.size()), "export");
   }
   bool inside(const Vec3f& p) const {
     static const std::array<Vec3f, 3> dirs = {glm::normalize(Vec3f(0.5377f, 0.8346f, 0.1189f)),
@@ -67,7 +67,7 @@ class InsideTest {
   const io::Mesh& mesh_;
   std::vector<float> positions_;
   std::vector<std::int32_t> triangles_;
-  std::unique_ptr<accel::EmbreeScene> accel_;
+  std::unique_ptr<render::HostAccel> accel_;
 };
 
 // The double closest to the shortest decimal that reads back as x (0.4f ->

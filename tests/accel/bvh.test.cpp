@@ -3,7 +3,8 @@
 // tnear/tfar windows; the analytic cube; rays through edges and vertices of
 // closed meshes never slip through; degenerate triangles never reported; bad
 // input rejected; refit and rebuild; tree invariants; and the generic tracer
-// gives the same radiance with either intersector.
+// gives the same radiance with either intersector. In a build without Embree
+// only the comparisons with it are left out.
 #include "support/ad_check.hpp"
 #include "support/scenes.hpp"
 #include "support/rays.hpp"
@@ -15,13 +16,18 @@
 
 #include "difftrans/accel/bvh.hpp"
 #include "difftrans/render/passes.hpp"
+#if DIFFTRANS_HAVE_EMBREE
+#include "difftrans/accel/embree.hpp"
+#endif
 
 using namespace dt_test;
 using difftrans::Vec3f;
 using difftrans::accel::Bvh;
 using difftrans::accel::BvhNode;
-using difftrans::accel::EmbreeScene;
 using difftrans::accel::RayHit;
+#if DIFFTRANS_HAVE_EMBREE
+using difftrans::accel::EmbreeScene;
+#endif
 
 namespace {
 
@@ -30,10 +36,6 @@ using Ray = IncoherentRay;
 Bvh make_bvh(const Shape& s, const std::string& name = "mesh") {
   return Bvh(s.positions.data(), std::int32_t(s.positions.size() / 3), s.triangles.data(),
              std::int32_t(s.triangles.size() / 3), name);
-}
-EmbreeScene* make_embree(const Shape& s) {
-  return new EmbreeScene(s.positions.data(), std::int32_t(s.positions.size() / 3), s.triangles.data(),
-                         std::int32_t(s.triangles.size() / 3), "mesh");
 }
 
 Vec3f vertex(const Shape& s, std::int32_t i) {
@@ -46,6 +48,13 @@ Vec3f hit_point(const Shape& s, const RayHit& h) {
   return (1.0f - h.u - h.v) * vertex(s, t[0]) + h.u * vertex(s, t[1]) + h.v * vertex(s, t[2]);
 }
 
+#if DIFFTRANS_HAVE_EMBREE
+EmbreeScene* make_embree(const Shape& s) {
+  return new EmbreeScene(s.positions.data(), std::int32_t(s.positions.size() / 3), s.triangles.data(),
+                         std::int32_t(s.triangles.size() / 3), "mesh");
+}
+
+// How the BVH's answers compare with Embree's on the same rays.
 struct Agreement {
   int rays = 0, hits = 0, hit_miss_differ = 0, other_prim = 0, bad_t = 0, bad_uv = 0, bad_point = 0;
 };
@@ -85,6 +94,7 @@ Agreement compare_with_embree(const Shape& s, const Bvh& bvh, const EmbreeScene&
   }
   return a;
 }
+#endif  // DIFFTRANS_HAVE_EMBREE
 
 // Rays through the vertices and edge midpoints of a closed mesh, which must
 // cross the surface there (or earlier): from outside along the inward
@@ -152,6 +162,7 @@ TEST_CASE("closest hits on a cube: distance, barycentrics, inside rays, tnear an
   CHECK(along.t == doctest::Approx(2.5f));
 }
 
+#if DIFFTRANS_HAVE_EMBREE
 TEST_CASE("spot and bunny: the same hits as Embree on incoherent rays") {
   for (const char* name : {"spot.obj", "bunny.obj"}) {
     CAPTURE(name);
@@ -171,6 +182,7 @@ TEST_CASE("spot and bunny: the same hits as Embree on incoherent rays") {
     CHECK(a.bad_point == 0);
   }
 }
+#endif
 
 TEST_CASE("rays through edges and vertices of closed meshes never slip through") {
   // the cube: sweeps across the diagonals (shared edges) of every face, and
@@ -316,7 +328,9 @@ TEST_CASE("tree invariants: every triangle once, boxes enclose, bounded depth") 
 TEST_CASE("refit and rebuild follow moved vertices") {
   const Shape spot = load_normalized_mesh(std::string(DIFFTRANS_DATA_DIR) + "/meshes/spot.obj");
   Bvh bvh = make_bvh(spot);
+#if DIFFTRANS_HAVE_EMBREE
   const std::unique_ptr<EmbreeScene> em(make_embree(spot));
+#endif
   // a smooth deformation: twist and stretch, so boxes must grow and shrink
   Shape moved = spot;
   for (std::size_t i = 0; i < moved.positions.size(); i += 3) {
@@ -330,19 +344,23 @@ TEST_CASE("refit and rebuild follow moved vertices") {
     y = y + 0.1f * x;
   }
   bvh.refit(moved.positions.data());
-  em->update_positions(moved.positions.data());
   CHECK(bvh.sah_cost() > bvh.built_sah_cost());  // the old tree fits the new shape worse
+#if DIFFTRANS_HAVE_EMBREE
+  em->update_positions(moved.positions.data());
   const auto rays = incoherent_rays(20000, 21, true);
   Agreement a = compare_with_embree(moved, bvh, *em, rays);
   CHECK(a.hits > a.rays / 4);
   CHECK(a.hit_miss_differ <= 2);
   CHECK(a.bad_t == 0);
   CHECK(a.bad_point == 0);
+#endif
   bvh.rebuild(moved.positions.data());
   CHECK(bvh.sah_cost() == bvh.built_sah_cost());
+#if DIFFTRANS_HAVE_EMBREE
   a = compare_with_embree(moved, bvh, *em, rays);
   CHECK(a.hit_miss_differ <= 2);
   CHECK(a.bad_t == 0);
+#endif
   // update_positions: 2000 small separate triangles, each moved to another
   // place; the refitted boxes then span everything, so it rebuilds
   Shape soup, shuffled;
@@ -367,6 +385,7 @@ TEST_CASE("refit and rebuild follow moved vertices") {
   CHECK(up.sah_cost() == up.built_sah_cost());
   CHECK(only_refit.sah_cost() > 3.0 * up.sah_cost());
   // both answer right; the rebuilt tree does so with less work
+#if DIFFTRANS_HAVE_EMBREE
   const std::unique_ptr<EmbreeScene> es(make_embree(shuffled));
   const auto soup_rays = incoherent_rays(5000, 22, true);
   const Agreement s1 = compare_with_embree(shuffled, up, *es, soup_rays);
@@ -374,9 +393,12 @@ TEST_CASE("refit and rebuild follow moved vertices") {
   CHECK(s1.hits > 100);
   CHECK(s1.hit_miss_differ + s1.bad_t + s1.bad_point == 0);
   CHECK(s2.hit_miss_differ + s2.bad_t + s2.bad_point == 0);
+#endif
 }
 
 
+// (Without Embree, HostScene itself traces with a Bvh: nothing to compare.)
+#if DIFFTRANS_HAVE_EMBREE
 TEST_CASE("the tracer renders the same with the BVH as with Embree") {
   using namespace difftrans;
   const render::HostScene s = sphere_scene();
@@ -406,3 +428,4 @@ TEST_CASE("the tracer renders the same with the BVH as with Embree") {
   CHECK(hit_pixels > cam.width * cam.height / 5);
   CHECK(differ == 0);
 }
+#endif

@@ -1,6 +1,6 @@
-// Host reference passes (render/passes.hpp, Embree) for the device render
-// test, compiled in a C++ translation unit of their own so that nvcc never
-// instantiates the tracer with EmbreeScene.
+// Host reference passes (render/passes.hpp, on HostScene's accelerator) for
+// the device render test, compiled in a C++ translation unit of their own so
+// that nvcc never instantiates the tracer with the host accelerator.
 #pragma once
 
 #include <vector>

@@ -1,20 +1,36 @@
 // A scene owned on the host — mesh, IoR, absorption, environment and the
-// Embree BVH — with the parameter buffers (values, gradients, tangents) that
+// host accelerator (Embree, or the portable BVH in a build without it) — with the parameter buffers (values, gradients, tangents) that
 // the generic tracer reads its unknowns from. Examples and tests build one
 // and hand view() / params() to the passes in render/passes.hpp.
 #pragma once
 
 #include <algorithm>
+#include <cstdint>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
+#if DIFFTRANS_HAVE_EMBREE
 #include "difftrans/accel/embree.hpp"
+#else
+#include "difftrans/accel/bvh.hpp"
+#endif
 #include "difftrans/ad/params.hpp"
 #include "difftrans/render/tracer.hpp"
 #include "difftrans/scene/radiance_field.hpp"
 
 namespace difftrans::render {
+
+// The closest-hit accelerator of host scenes. The host-tracing target
+// (difftrans::host_tracing) defines DIFFTRANS_HAVE_EMBREE=1 when Embree was
+// found; otherwise the portable BVH answers the same query (same RayHit, a
+// watertight test, its own tree), so every pass runs unchanged on either.
+#if DIFFTRANS_HAVE_EMBREE
+using HostAccel = accel::EmbreeScene;
+#else
+using HostAccel = accel::Bvh;
+#endif
 
 // Parameter buffer ids of a scene.
 enum ParamId : int {
@@ -65,8 +81,8 @@ class HostScene {
       rebuild_accel();
   }
   void rebuild_accel() {
-    accel_ = std::make_unique<accel::EmbreeScene>(mesh.positions.data(), mesh.num_vertices(), mesh.triangles.data(),
-                                                  mesh.num_triangles(), name_);
+    accel_ = std::make_unique<HostAccel>(mesh.positions.data(), mesh.num_vertices(), mesh.triangles.data(),
+                                         mesh.num_triangles(), name_);
   }
 
   void set_homogeneous_absorption(const Vec3f& sigma) {
@@ -92,7 +108,7 @@ class HostScene {
 
   void set_near_field(std::shared_ptr<const scene::RadianceField> field) { near_field = std::move(field); }
 
-  const accel::EmbreeScene& accel() const { return *accel_; }
+  const HostAccel& accel() const { return *accel_; }
 
   // Calls f(escape) with the escape the tracer should use for this scene:
   // FixedEscape over the near field when one is set, else DistantEscape.
@@ -147,7 +163,7 @@ class HostScene {
 
  private:
   std::string name_ = "mesh";
-  std::unique_ptr<accel::EmbreeScene> accel_;
+  std::unique_ptr<HostAccel> accel_;
 };
 
 // Gradient arrays for every parameter of a scene, sized to match.
