@@ -15,6 +15,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -37,7 +38,27 @@
 #include "pipeline/config.hpp"
 #include "pipeline/geometry_refine.hpp"
 
+namespace difftrans::losses {
+inline const std::array<const char*, 3>& enum_names(ColourLoss) {
+  static const std::array<const char*, 3> names{"l2", "relative_l2", "log_l2"};
+  return names;
+}
+}  // namespace difftrans::losses
+
 namespace difftrans::pipeline {
+
+// How a pixel's samples meet its photograph: `mean`, the colour loss of
+// their mean (biased by the variance of the mean: 1/samples of one ray's);
+// `pairs`, the product of the residuals of independent samples in pairs,
+// Σ_ch (f(ĉ₁) − f(c)) (f(ĉ₂) − f(c)) with f the colour loss's transform (the
+// identity for L2, log(1 + x) for log L2), whose expectation is
+// (E f(ĉ) − f(c))² with no variance term (an even number of samples; the
+// tone term still uses the mean).
+enum class PixelLoss : int { mean, pairs };
+inline const std::array<const char*, 2>& enum_names(PixelLoss) {
+  static const std::array<const char*, 2> names{"mean", "pairs"};
+  return names;
+}
 
 // the parts stage 2 assembles
 using namespace difftrans::render;
@@ -70,7 +91,17 @@ struct Stage2Weights {
 
 struct Stage2Config {
   int iterations = 1000;
-  int rays_per_iteration = 8192;  // random object pixels (one jittered ray each)
+  int rays_per_iteration = 8192;  // rays per iteration: rays_per_iteration / pixel_samples random object pixels
+  // Rays per training pixel, stratified (n × n when a square) and compared
+  // with the photograph through pixel_loss. One jittered ray against the
+  // pixel (the mean over its footprint) adds the ray's variance inside the
+  // pixel to the loss: the fit then flattens the refracted image, and the
+  // vertices drift (a pitted sphere: docs/stage2-diagnostics.md, "pixel").
+  // Two rays in pairs: on spot-clear the joint fit took the stage-1 mesh's
+  // chamfer distance from 2.40e-5 to 1.98e-5, where one ray per pixel took
+  // it to 4.56e-5.
+  int pixel_samples = 2;
+  PixelLoss pixel_loss = PixelLoss::pairs;
   int views_per_iteration = 8;
   // k: materials and IoR only for the first k iterations, the IoR at its
   // slow rate (the paper's 1e-4: the absorption finds its level first, or the
@@ -94,6 +125,7 @@ struct Stage2Config {
   float lr_ior = 3e-3f;           // afterwards
   float lr_absorption = 2e-2f;    // on the raw (softplus) parameters
   float lr_positions = 1e-3f;
+  float beta1_positions = 0.9f;   // the vertices' Adam momentum: 0.99 averages the noisy gradient over ~100 steps
   float lr_decay = 2e-4f;
   double lambda = 19.0;
   // unknowns
@@ -112,13 +144,20 @@ struct Stage2Config {
     t.integration.samples = 4;
     return t;
   }();
-  bool relative_l2 = false;       // true: relative L2 (see the top of the file)
+  losses::ColourLoss colour_loss = losses::ColourLoss::l2;  // losses/photometric.hpp
   float max_ray_loss = 1e3f;      // rays whose colour loss exceeds this are skipped (outliers: sun glints)
   // Per-ray clip of the vertex gradient: the L2 norm of the gradient of one
   // ray's own loss w.r.t. the vertices (positions and normals) is capped at
   // this (ray_batch_gradient's clip_geometry, given clip_geometry / rays as
   // the loss is a mean over the rays); 0: off. See the note on the class.
   float clip_geometry = 1.0f;
+  // Per-ray clip of the IoR derivative (ray_batch_gradient's clip_ior, as
+  // clip_ior / rays); 0: off. Near the critical angle a ray's IoR derivative
+  // has a heavy tail: unclipped, a batch's IoR gradient on spot-clear (true
+  // mesh) is noise around a mean that 32 batches cannot pin down; clipped
+  // at 10 (5 % of the rays) its zero lies 0.006 from the true IoR
+  // (docs/stage2-diagnostics.md, "ior").
+  float clip_ior = 10.0f;
   Stage2Weights weights;
   std::uint64_t seed = 1;
   // inputs and outputs of the stage
@@ -133,6 +172,12 @@ struct Stage2Config {
     v(Field{"rays_per_iteration", "--materials-rays", "training rays (object pixels) per iteration", 1, big},
       c.rays_per_iteration);
     v(Field{"views_per_iteration", "", "training views per iteration"}, c.views_per_iteration);
+    v(Field{"pixel_samples", "--materials-pixel-samples", "rays per training pixel (stratified)", 1, 64},
+      c.pixel_samples);
+    v(Field{"pixel_loss", "--materials-pixel-loss",
+            "how a pixel's samples meet the photograph: mean (loss of their mean) or pairs (products of residuals "
+            "of sample pairs: no variance bias)"},
+      c.pixel_loss);
     v(Field{"freeze_geometry", "--materials-freeze",
             "warm-up iterations (IoR at lr 1e-4, geometry frozen) before the joint phase", 0, big},
       c.freeze_geometry);
@@ -155,6 +200,8 @@ struct Stage2Config {
       c.lr_absorption);
     v(Field{"lr_vertices", "--materials-lr-vertices", "vertex learning rate (with --materials-geometry)", 0, 10},
       c.lr_positions);
+    v(Field{"beta1_vertices", "--materials-beta1-vertices", "Adam momentum of the vertices", 0, 0.9999},
+      c.beta1_positions);
     v(Field{"lr_decay", "", "d in lr 10^(-d i)"}, c.lr_decay);
     v(Field{"lambda", "--materials-lambda", "large-steps lambda (with --materials-geometry)", 0, 1e6}, c.lambda);
     v(Field{"ior_init", "--ior-init", "starting IoR", 1, 3}, c.ior_init);
@@ -172,9 +219,11 @@ struct Stage2Config {
     v(Field{"training_depth", "--materials-depth", "tracing depth of the training rays", 1, 16}, c.trace.max_depth);
     v(Field{"training_prune", "", "throughput below which a training branch is pruned"}, c.trace.prune_throughput);
     v(Field{"training_samples", "", "samples of the absorption integral per segment"}, c.trace.integration.samples);
-    v(Field{"relative_l2", "", "relative L2 colour loss instead of plain L2"}, c.relative_l2);
+    v(Field{"colour_loss", "--materials-colour-loss", "colour loss per ray: l2, relative_l2 or log_l2 (L2 of log(1 + x))"},
+      c.colour_loss);
     v(Field{"max_ray_loss", "", "rays with a larger colour loss are skipped"}, c.max_ray_loss);
     v(Field{"clip_geometry", "", "per-ray clip of the vertex gradient's norm (0: off)"}, c.clip_geometry);
+    v(Field{"clip_ior", "--materials-clip-ior", "per-ray clip of the IoR derivative (0: off)", 0, 1e30}, c.clip_ior);
     v(Field{"weights", "", "loss weights"}, c.weights);
     v(Field{"seed", "", "seed of the ray batches"}, c.seed);
     v(Field{"mesh", "--materials-mesh", "mesh to start from (default: DIR/mesh_stage1.obj)"}, c.mesh);
@@ -189,7 +238,7 @@ struct Stage2Stats {
   Vec3f mean_sigma{0.0f};
   bool geometry_moving = false;
   float environment_blur = 0.0f;  // σ in texels of the map this iteration
-  std::int64_t rays = 0, skipped_rays = 0, overflowed_rays = 0, clipped_rays = 0;
+  std::int64_t rays = 0, skipped_rays = 0, overflowed_rays = 0, clipped_rays = 0, clipped_ior_rays = 0;
   double seconds = 0.0, trace_seconds = 0.0;
 };
 
@@ -208,7 +257,7 @@ class Stage2 {
   Stage2(HostScene& scene, std::vector<Stage2View> views, std::vector<pipeline::Stage1View> mask_views,
          const Stage2Config& config)
       : scene_(scene), views_(std::move(views)), mask_views_(std::move(mask_views)), config_(config),
-        positions_(config.lambda) {
+        positions_(config.lambda, optim::AdamOptions{config.lr_positions, config.beta1_positions, 0.999f, 1e-8f}) {
     if (views_.empty()) throw std::invalid_argument("Stage2: no training views");
     scene_.ior = std::clamp(config_.ior_init, config_.ior_min, config_.ior_max);
     const std::size_t nv = std::size_t(config_.absorption_res) * config_.absorption_res * config_.absorption_res;
@@ -241,7 +290,9 @@ class Stage2 {
 
   // One iteration's training rays and their target pixels, drawn from `rng`:
   // views_per_iteration views without repetition, then rays_per_iteration /
-  // views random object pixels of each, one ray jittered inside each pixel.
+  // (views · pixel_samples) random object pixels of each, pixel_samples rays
+  // inside each pixel (stratified n × n when pixel_samples = n², else
+  // uniform), consecutive in `rays`; one target per pixel.
   void draw_batch(std::mt19937_64& rng, std::vector<BatchRay>& rays, std::vector<Vec3f>& target) const {
     std::vector<int> order(views_.size());
     std::iota(order.begin(), order.end(), 0);
@@ -249,7 +300,10 @@ class Stage2 {
     order.resize(std::min<std::size_t>(order.size(), std::size_t(std::max(1, config_.views_per_iteration))));
     rays.clear();
     target.clear();
-    const int per_view = std::max(1, config_.rays_per_iteration / int(order.size()));
+    const int k = std::max(1, config_.pixel_samples);
+    int n = int(std::lround(std::sqrt(double(k))));
+    if (n * n != k) n = 0;  // not a square: uniform jitter
+    const int per_view = std::max(1, config_.rays_per_iteration / (k * int(order.size())));
     std::uniform_real_distribution<float> unit(0.0f, 1.0f);
     for (int v : order) {
       const auto& pix = pixels_[std::size_t(v)];
@@ -259,8 +313,13 @@ class Stage2 {
       for (int r = 0; r < per_view; ++r) {
         const std::int32_t p = pix[pick(rng)];
         const int x = p % view.camera.width, y = p / view.camera.width;
-        const scene::Ray ray = view.camera.generate_ray(x, y, unit(rng), unit(rng));
-        rays.push_back({ray.origin, ray.direction});
+        for (int q = 0; q < k; ++q) {
+          const float jx = unit(rng), jy = unit(rng);
+          const scene::Ray ray = n > 1 ? view.camera.generate_ray(x, y, (float(q % n) + jx) / float(n),
+                                                                  (float(q / n) + jy) / float(n))
+                                       : view.camera.generate_ray(x, y, jx, jy);
+          rays.push_back({ray.origin, ray.direction});
+        }
         const float* c = view.image + std::size_t(p) * 3;
         target.push_back(Vec3f(c[0], c[1], c[2]));
       }
@@ -268,7 +327,7 @@ class Stage2 {
   }
 
   // One training ray's weighted colour + tone loss (inv_n: 1 / the batch's
-  // ray count) and its adjoint d value / d radiance. An outlier (colour loss
+  // pixel count) and its adjoint d value / d radiance. An outlier (colour loss
   // above max_ray_loss, or NaN) is skipped: value and adjoint 0.
   struct RayLoss {
     double value = 0.0, colour = 0.0, tone = 0.0;
@@ -277,7 +336,7 @@ class Stage2 {
   };
   RayLoss ray_loss(const Vec3f& radiance, const Vec3f& target, float inv_n) const {
     const Stage2Weights& w = config_.weights;
-    const losses::RayColourLoss l = losses::ray_colour_loss(radiance, target, config_.relative_l2, w.tone != 0.0f);
+    const losses::RayColourLoss l = losses::ray_colour_loss(radiance, target, config_.colour_loss, w.tone != 0.0f);
     RayLoss out;
     if (!(l.colour <= double(config_.max_ray_loss))) {  // NaN or an outlier: no gradient
       out.skipped = true;
@@ -287,6 +346,42 @@ class Stage2 {
     out.tone = l.tone;
     out.adjoint = inv_n * (w.color * l.dcolour + w.tone * l.dtone);
     out.value = w.color * inv_n * l.colour + w.tone * inv_n * l.tone;
+    return out;
+  }
+
+  // One pixel's loss from its pixel_samples radiances L[0 .. k): the loss of
+  // their mean (pixel_loss mean, or one sample), or with pixel_loss pairs the
+  // colour term from the pairs' residual products and the tone term from the
+  // mean. adjoint[q] = d value / d L[q]. The outlier test looks at the mean.
+  RayLoss pixel_loss(const Vec3f* L, int k, const Vec3f& target, float inv_n, Vec3f* adjoint) const {
+    Vec3f mean(0.0f);
+    for (int q = 0; q < k; ++q) mean += L[q] / float(k);
+    RayLoss m = ray_loss(mean, target, inv_n);
+    if (m.skipped || config_.pixel_loss == PixelLoss::mean || k < 2) {
+      for (int q = 0; q < k; ++q) adjoint[q] = m.adjoint / float(k);
+      return m;
+    }
+    // pairs: colour = mean over pairs of Σ_ch (f(ĉ₁) − f(c)) (f(ĉ₂) − f(c))
+    const Stage2Weights& w = config_.weights;
+    const bool log = config_.colour_loss == losses::ColourLoss::log_l2;
+    const auto f = [log](float x) { return log ? float(std::log1p(double(std::max(0.0f, x)))) : x; };
+    const auto df = [log](float x) { return log ? (x > 0.0f ? 1.0f / (1.0f + x) : 0.0f) : 1.0f; };
+    const losses::RayColourLoss tone = losses::ray_colour_loss(mean, target, config_.colour_loss, w.tone != 0.0f);
+    RayLoss out;
+    out.tone = tone.tone;
+    const int pairs = k / 2;
+    for (int q = 0; q < k; ++q) adjoint[q] = w.tone * inv_n * tone.dtone / float(k);
+    for (int pr = 0; pr < pairs; ++pr) {
+      const Vec3f& a = L[2 * pr];
+      const Vec3f& b = L[2 * pr + 1];
+      for (int ch = 0; ch < 3; ++ch) {
+        const float ra = f(a[ch]) - f(target[ch]), rb = f(b[ch]) - f(target[ch]);
+        out.colour += double(ra) * double(rb) / pairs;
+        adjoint[2 * pr][ch] += w.color * inv_n * rb * df(a[ch]) / float(pairs);
+        adjoint[2 * pr + 1][ch] += w.color * inv_n * ra * df(b[ch]) / float(pairs);
+      }
+    }
+    out.value = w.color * inv_n * out.colour + w.tone * inv_n * out.tone;
     return out;
   }
 
@@ -322,25 +417,26 @@ class Stage2 {
     SceneGradient grad(scene_);
     PassOptions po;
     po.trace = config_.trace;
-    const float inv_n = 1.0f / float(std::max<std::size_t>(1, rays.size()));
+    const float inv_n = 1.0f / float(std::max<std::size_t>(1, target.size()));
     const Stage2Weights& w = config_.weights;
-    std::vector<double> color_per_ray(rays.size(), 0.0), tone_per_ray(rays.size(), 0.0);
-    std::vector<std::uint8_t> skipped(rays.size(), 0);
+    const int k = std::max(1, config_.pixel_samples);
+    std::vector<double> color_per_ray(target.size(), 0.0), tone_per_ray(target.size(), 0.0);
+    std::vector<std::uint8_t> skipped(target.size(), 0);
     const auto t1 = clock::now();
-    const RayBatchResult rb = ray_batch_gradient<float>(
-        scene_, rays,
-        [&](std::int32_t i, const Vec3f& L, Vec3f& dL) {
-          const RayLoss l = ray_loss(L, target[std::size_t(i)], inv_n);
+    const RayBatchResult rb = ray_group_gradient<float>(
+        scene_, rays, k,
+        [&](std::int64_t i, const Vec3f* L, Vec3f* dL) {
+          const RayLoss l = pixel_loss(L, k, target[std::size_t(i)], inv_n, dL);
           skipped[std::size_t(i)] = l.skipped;
           color_per_ray[std::size_t(i)] = l.colour;
           tone_per_ray[std::size_t(i)] = l.tone;
-          dL = l.adjoint;
           return l.value;
         },
-        grad, po, false, st.geometry_moving ? config_.clip_geometry * inv_n : 0.0f);
+        grad, po, false, st.geometry_moving ? config_.clip_geometry * inv_n : 0.0f, config_.clip_ior * inv_n);
     st.clipped_rays = rb.clipped_rays;
+    st.clipped_ior_rays = rb.clipped_ior_rays;
     st.trace_seconds = std::chrono::duration<double>(clock::now() - t1).count();
-    for (std::size_t i = 0; i < rays.size(); ++i) {
+    for (std::size_t i = 0; i < target.size(); ++i) {
       st.color += color_per_ray[i] * inv_n;
       st.tone += tone_per_ray[i] * inv_n;
       st.skipped_rays += skipped[i];

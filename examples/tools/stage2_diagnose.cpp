@@ -23,6 +23,10 @@
 //              x + tΔ; all at several blurs of the environment, against the
 //              photographs or against the true object traced along the same
 //              rays (targets that share the blur and carry no pixel filter).
+//   ior        where the loss is lowest in the IoR (and, with --sigmas, a
+//              grey absorption): the loss over fixed batches on a grid,
+//              the parabola through its lowest points, and the spread of
+//              dL/dIoR over batches at the material's IoR.
 //
 // Results are JSON on stdout, progress on stderr.
 #include <CLI/CLI.hpp>
@@ -35,6 +39,7 @@
 #include <filesystem>
 #include <functional>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <sstream>
 #include <stdexcept>
@@ -68,6 +73,7 @@ struct CommonOptions {
   float prune = 0.01f;
   std::uint64_t seed = 1;
   int iteration = 0;      // the first batch is Stage2's batch of this iteration
+  losses::ColourLoss colour_loss = losses::ColourLoss::l2;
 };
 
 void add_common(CLI::App* cmd, CommonOptions& o) {
@@ -82,6 +88,10 @@ void add_common(CLI::App* cmd, CommonOptions& o) {
   cmd->add_option("--prune", o.prune, "Pruning threshold on a branch's throughput")->capture_default_str()
       ->check(CLI::Range(0.0, 1.0));
   cmd->add_option("--seed", o.seed, "Stage 2's seed (draws the batches)")->capture_default_str();
+  cmd->add_option("--colour-loss", o.colour_loss, "Colour loss per ray: l2, relative_l2, log_l2")
+      ->transform(CLI::CheckedTransformer(std::map<std::string, losses::ColourLoss>{
+          {"l2", losses::ColourLoss::l2}, {"relative_l2", losses::ColourLoss::relative_l2},
+          {"log_l2", losses::ColourLoss::log_l2}}));
   cmd->add_option("--iteration", o.iteration, "Batch k is Stage2's batch of iteration ITERATION + k")
       ->capture_default_str()->check(CLI::NonNegativeNumber);
 }
@@ -139,6 +149,8 @@ class Setup {
     config_.trace.max_depth = o.depth;
     config_.trace.prune_throughput = o.prune;
     config_.seed = o.seed;
+    config_.colour_loss = o.colour_loss;
+    config_.pixel_samples = 1;  // the diagnostics look at rays one by one, each against its pixel
     // Stage2 starts the material afresh; the diagnostics keep the given one
     const float ior = s_->ior;
     const scene::AbsorptionKind kind = s_->absorption_kind;
@@ -199,6 +211,12 @@ class Setup {
 
 // ------------------------------------------------------------------ tracing
 
+// A non-null direction pointer that moves no vertex.
+const std::vector<float>& empty_direction() {
+  static const std::vector<float> none;
+  return none;
+}
+
 // One ray's radiance in double, its derivative along a direction of the
 // vertex positions (forward mode; zero without a direction) and what the
 // tracer counted on its way.
@@ -214,12 +232,15 @@ bool same_path(const TraceStats& a, const TraceStats& b) {
 
 // Every ray traced in double (or Dual<double, 1> along `direction`, 3 values
 // per vertex, when given) with the library's tracer on the thread pool.
+// With ior_tangent (and s.differentiate[param_ior]) the derivative is along the IoR instead.
 std::vector<RayEval> trace_rays(const HostScene& s, const std::vector<BatchRay>& rays, const TraceSettings& settings,
-                                const std::vector<float>* direction = nullptr) {
+                                const std::vector<float>* direction = nullptr, bool ior_tangent = false) {
   using D = ad::Dual<double, 1>;
   std::vector<RayEval> out(rays.size());
   ad::ParamSet params = s.params();
+  static const float one = 1.0f;
   if (direction) params.buffers[render::param_positions].tangents[0] = direction->data();
+  if (ior_tangent) params.buffers[render::param_ior].tangents[0] = &one, direction = &empty_direction();
   const render::SceneView view = s.view(direction != nullptr);
   ThreadPool::global().parallel_for(std::int64_t(rays.size()), 64, [&](std::int64_t b, std::int64_t e, int) {
     for (std::int64_t i = b; i < e; ++i) {
@@ -765,6 +786,183 @@ io::Json home(Setup& setup, const HomeOptions& o) {
   return out;
 }
 
+// ------------------------------------------------------------------ ior
+
+struct IorOptions {
+  std::vector<double> iors;              // the IoR values of the scan
+  std::vector<double> sigmas;            // grey homogeneous absorption values (empty: the material's)
+  int loss_batches = 8;                  // fixed batches averaged per point
+  int gradient_batches = 8;              // batches of dL/dIoR at the material's IoR
+  std::vector<double> check_steps;       // per-ray central differences of the first batch (empty: none)
+  std::vector<double> clip_ior{0.0};     // per-ray clips of the IoR derivative (0: none)
+};
+
+// Where is the loss lowest in the IoR (and a grey absorption)? The loss
+// averaged over fixed batches on a grid of IoR (× σ) values, the parabola
+// through the lowest point and its neighbours, and the IoR gradient's mean
+// and spread over batches at the material's IoR. On the true mesh with the
+// true environment and a deep enough tracer the minimum must sit at the
+// true IoR; each departure (recovered map, depth, stage-1 mesh) shows
+// what moves it.
+io::Json ior_scan(Setup& setup, const IorOptions& o) {
+  HostScene& s = setup.scene();
+  const pipeline::Stage2& stage = setup.stage();
+  const float ior0 = s.ior;
+  const scene::AbsorptionKind kind0 = s.absorption_kind;
+  const std::vector<float> raw0 = s.absorption_raw;
+  const Vec3i res0 = s.absorption_res;
+  const Vec3f lo0 = s.absorption_lo, hi0 = s.absorption_hi;
+  const auto restore_material = [&] {
+    s.ior = ior0;
+    s.absorption_kind = kind0;
+    s.absorption_raw = raw0;
+    s.absorption_res = res0;
+    s.absorption_lo = lo0;
+    s.absorption_hi = hi0;
+  };
+  const int nb = std::max(o.loss_batches, o.gradient_batches);
+  std::vector<std::vector<BatchRay>> rays(static_cast<std::size_t>(nb));
+  std::vector<std::vector<Vec3f>> targets(static_cast<std::size_t>(nb));
+  for (int b = 0; b < nb; ++b) setup.batch(b, rays[std::size_t(b)], targets[std::size_t(b)]);
+  const auto mean_loss = [&] {
+    double sum = 0.0;
+    for (int b = 0; b < o.loss_batches; ++b) {
+      const auto& r = rays[std::size_t(b)];
+      const float inv_n = 1.0f / float(r.size());
+      const std::vector<RayEval> e = trace_rays(s, r, setup.trace());
+      for (std::size_t i = 0; i < r.size(); ++i)
+        sum += stage.ray_loss(Vec3f(e[i].radiance), targets[std::size_t(b)][i], inv_n).value;
+    }
+    return sum / double(std::max(1, o.loss_batches));
+  };
+  io::Json out;
+  // the gradient at the material's IoR, batch by batch, each ray's
+  // derivative clipped at each of clip_ior (per ray, before the 1/n of the mean; 0: not clipped)
+  {
+    for (bool& d : s.differentiate) d = false;
+    s.differentiate[render::param_ior] = true;
+    io::Json gj = io::Json::array();
+    for (const double clip : o.clip_ior) {
+      double sum = 0.0, sum2 = 0.0, clipped = 0.0;
+      for (int b = 0; b < o.gradient_batches; ++b) {
+        const auto& r = rays[std::size_t(b)];
+        const auto& tg = targets[std::size_t(b)];
+        const float inv_n = 1.0f / float(r.size());
+        render::SceneGradient g(s);
+        render::PassOptions po;
+        po.trace = setup.trace();
+        const render::RayBatchResult rb = render::ray_batch_gradient<float>(
+            s, r,
+            [&](std::int32_t i, const Vec3f& L, Vec3f& dL) {
+              const auto l = stage.ray_loss(L, tg[std::size_t(i)], inv_n);
+              dL = l.adjoint;
+              return l.value;
+            },
+            g, po, false, 0.0f, float(clip) * inv_n);
+        sum += double(g.ior[0]);
+        sum2 += double(g.ior[0]) * double(g.ior[0]);
+        clipped += double(rb.clipped_ior_rays) / double(r.size());
+      }
+      const double n = double(std::max(1, o.gradient_batches)), mean = sum / n;
+      const double sd = std::sqrt(std::max(0.0, sum2 / n - mean * mean));
+      gj.push_back({{"clip", clip}, {"mean", mean}, {"std", sd}, {"standard_error", sd / std::sqrt(n)},
+                    {"snr", sd > 0.0 ? mean / sd : 0.0}, {"clipped_ray_fraction", clipped / n}});
+    }
+    out["gradient_at_material_ior"] = {{"ior", ior0}, {"batches", o.gradient_batches}, {"by_clip", gj}};
+    for (bool& d : s.differentiate) d = false;
+    s.differentiate[render::param_positions] = s.differentiate[render::param_normals] = true;
+  }
+  // ray by ray on the first batch: forward mode against central differences
+  if (!o.check_steps.empty()) {
+    const auto& r = rays[0];
+    const auto& tg = targets[0];
+    const float inv_n = 1.0f / float(r.size());
+    for (bool& d : s.differentiate) d = false;
+    s.differentiate[render::param_ior] = true;
+    const std::vector<RayEval> at = trace_rays(s, r, setup.trace(), nullptr, true);
+    for (bool& d : s.differentiate) d = false;
+    s.differentiate[render::param_positions] = s.differentiate[render::param_normals] = true;
+    std::vector<double> ad_ray(r.size());
+    double rms = 0.0;
+    for (std::size_t i = 0; i < r.size(); ++i) {
+      const Vec3f adj = stage.ray_loss(Vec3f(at[i].radiance), tg[i], inv_n).adjoint;
+      ad_ray[i] = glm::dot(Vec3d(adj), at[i].derivative);
+      rms += ad_ray[i] * ad_ray[i];
+    }
+    rms = std::sqrt(rms / double(std::max<std::size_t>(1, r.size())));
+    io::Json checks = io::Json::array();
+    for (const double h : o.check_steps) {
+      s.ior = float(double(ior0) + h);
+      const std::vector<RayEval> up = trace_rays(s, r, setup.trace());
+      s.ior = float(double(ior0) - h);
+      const std::vector<RayEval> down = trace_rays(s, r, setup.trace());
+      s.ior = ior0;
+      const double step = (double(float(double(ior0) + h)) - double(float(double(ior0) - h)));
+      double sum_ad = 0.0, sum_fd = 0.0, fd_changed = 0.0, ad_changed = 0.0;
+      std::int64_t agree = 0, changed = 0;
+      std::map<std::string, Agreement> by_class;
+      for (std::size_t i = 0; i < r.size(); ++i) {
+        const double lu = stage.ray_loss(Vec3f(up[i].radiance), tg[i], inv_n).value;
+        const double ld = stage.ray_loss(Vec3f(down[i].radiance), tg[i], inv_n).value;
+        const double fd = (lu - ld) / step, a = ad_ray[i];
+        const bool ok = std::abs(fd - a) <= 0.01 * std::abs(a) + 1e-3 * rms;
+        const bool moved = !same_path(up[i].stats, at[i].stats) || !same_path(down[i].stats, at[i].stats);
+        sum_ad += a, sum_fd += fd;
+        agree += ok;
+        if (moved) ++changed, fd_changed += fd, ad_changed += a;
+        by_class[ray_class(at[i].stats)].add(fd, a, ok, std::abs(fd - a) / std::max(std::abs(a), 1e-300));
+      }
+      io::Json cj = io::Json::object();
+      for (auto& [name, ag] : by_class) cj[name] = ag.json();
+      checks.push_back({{"step", h}, {"sum_ad", sum_ad}, {"sum_fd", sum_fd},
+                        {"agreeing_fraction", double(agree) / double(r.size())},
+                        {"path_changed_rays", changed}, {"sum_fd_path_changed", fd_changed},
+                        {"sum_ad_path_changed", ad_changed}, {"by_class", cj}});
+    }
+    out["ray_check"] = checks;
+  }
+  std::vector<double> sigmas = o.sigmas;
+  if (sigmas.empty()) sigmas.push_back(-1.0);  // the material's own absorption
+  io::Json rows = io::Json::array();
+  double best = 1e300, best_ior = 0.0, best_sigma = 0.0;
+  for (const double sigma : sigmas) {
+    restore_material();
+    if (sigma >= 0.0) s.set_homogeneous_absorption(Vec3f(float(sigma)));
+    std::vector<double> losses;
+    for (const double ior : o.iors) {
+      s.ior = float(ior);
+      losses.push_back(mean_loss());
+      cli::progress("ior: sigma " + (sigma >= 0.0 ? std::to_string(sigma) : std::string("material")) + " IoR " +
+                    std::to_string(ior) + " loss " + std::to_string(losses.back()));
+    }
+    const std::size_t k = std::size_t(std::min_element(losses.begin(), losses.end()) - losses.begin());
+    // the vertex of the parabola through the lowest point and its neighbours (equal spacing not assumed)
+    double vertex = o.iors[k];
+    if (k > 0 && k + 1 < losses.size()) {
+      const double x0 = o.iors[k - 1], x1 = o.iors[k], x2 = o.iors[k + 1];
+      const double y0 = losses[k - 1], y1 = losses[k], y2 = losses[k + 1];
+      const double d = (x0 - x1) * (x0 - x2) * (x1 - x2);
+      const double a = (x2 * (y1 - y0) + x1 * (y0 - y2) + x0 * (y2 - y1)) / d;
+      const double b = (x2 * x2 * (y0 - y1) + x1 * x1 * (y2 - y0) + x0 * x0 * (y1 - y2)) / d;
+      if (a > 0.0) vertex = -b / (2.0 * a);
+    }
+    if (losses[k] < best) best = losses[k], best_ior = vertex, best_sigma = sigma;
+    io::Json row;
+    if (sigma >= 0.0) row["sigma"] = sigma;
+    else row["sigma"] = "material";
+    row["loss"] = losses;
+    row["argmin_ior"] = o.iors[k];
+    row["parabola_ior"] = vertex;
+    rows.push_back(row);
+  }
+  restore_material();
+  out["iors"] = o.iors;
+  out["rows"] = rows;
+  out["best"] = {{"ior", best_ior}, {"loss", best}};
+  if (best_sigma >= 0.0) out["best"]["sigma"] = best_sigma;
+  return out;
+}
+
 std::vector<double> parse_numbers(const std::string& text, const std::string& option) {
   std::vector<double> v;
   std::stringstream ss(text);
@@ -786,6 +984,8 @@ int main(int argc, char** argv) {
   CommonOptions common;
   GradcheckOptions gc;
   HomeOptions ho;
+  IorOptions io_;
+  std::string iors = "1.3,1.35,1.4,1.45,1.5,1.55,1.6,1.65", sigmas, check_steps, clip_ior = "0";
   std::string fields = "inflate,wave1,wave3", steps = "1e-3,3e-4,1e-4,3e-5", blurs = "0,2,8,32";
 
   CLI::App* g = app.add_subcommand("gradcheck", "AD against central differences of the stage-2 loss on one fixed batch");
@@ -817,6 +1017,20 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   h->add_option("--write-projected", ho.write_projected, "Write the mesh moved to the true surface (x + Δ) as OBJ");
 
+  CLI::App* r = app.add_subcommand("ior", "Where is the loss lowest in the IoR (and a grey absorption)?");
+  add_common(r, common);
+  r->add_option("--iors", iors, "IoR values of the scan")->capture_default_str();
+  r->add_option("--sigmas", sigmas, "Grey homogeneous absorption values (per unit length) scanned with each IoR; "
+                                    "default: the material's absorption");
+  r->add_option("--check-steps", check_steps, "IoR steps of per-ray central differences on the first batch "
+                                             "(against forward mode), e.g. 1e-3,1e-4")->capture_default_str();
+  r->add_option("--clip-ior", clip_ior, "Per-ray clips of the IoR derivative for the gradient statistics (0: none)")
+      ->capture_default_str();
+  r->add_option("--loss-batches", io_.loss_batches, "Fixed batches averaged per point")->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  r->add_option("--gradient-batches", io_.gradient_batches, "Batches of dL/dIoR at the material's IoR")
+      ->capture_default_str()->check(CLI::PositiveNumber);
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -831,6 +1045,7 @@ int main(int argc, char** argv) {
     result["ior"] = setup.material().ior;
     result["settings"] = {{"rays", common.rays}, {"views", common.views}, {"depth", common.depth},
                           {"prune", common.prune}, {"seed", common.seed}, {"iteration", common.iteration},
+                          {"colour_loss", pipeline::detail::enum_name(common.colour_loss)},
                           {"threads", ThreadPool::global().size()}};
     bool passed = true;
     if (g->parsed()) {
@@ -840,6 +1055,12 @@ int main(int argc, char** argv) {
         if (!f.empty()) gc.fields.push_back(f);
       gc.steps = parse_numbers(steps, "--steps");
       result["gradcheck"] = gradcheck(setup, gc, passed);
+    } else if (r->parsed()) {
+      io_.iors = parse_numbers(iors, "--iors");
+      if (!sigmas.empty()) io_.sigmas = parse_numbers(sigmas, "--sigmas");
+      io_.clip_ior = parse_numbers(clip_ior, "--clip-ior");
+      if (!check_steps.empty()) io_.check_steps = parse_numbers(check_steps, "--check-steps");
+      result["ior_scan"] = ior_scan(setup, io_);
     } else {
       ho.blurs = parse_numbers(blurs, "--blurs");
       result["home"] = home(setup, ho);

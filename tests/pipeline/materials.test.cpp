@@ -7,6 +7,7 @@
 
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <string>
@@ -215,6 +216,86 @@ TEST_CASE("stage 2 with geometry: a dented sphere moves towards the truth") {
     MESSAGE("silhouettes alone: mean |r - 0.4| " << before << " -> " << after);
     CHECK(after < 0.5 * before);
   }
+}
+
+TEST_CASE("stage 2 with geometry: refraction finds a pit that the silhouettes cannot see") {
+  // The truth: a glass sphere with a pit at its top (radius scaled down by up
+  // to 25 % where y/|p| > 0.85, a smoothstep in y/|p|): a bowl 0.04 deep
+  // inside a rim. No silhouette touches a concave point: the masks see a
+  // flat lid over the bowl. Stage 2 starts from the round
+  // sphere; only the refracted colour can tell the vertices to sink.
+  const float r0 = 0.4f, depth = 0.25f, edge = 0.85f;
+  const auto true_radius = [&](const Vec3f& dir) {
+    const float t = std::max(0.0f, (dir.y - edge) / (1.0f - edge));
+    return r0 * (1.0f - depth * t * t * (3.0f - 2.0f * t));
+  };
+  const auto pitted = [&](dr::HostScene s) {
+    for (std::size_t v = 0; v * 3 < s.mesh.positions.size(); ++v) {
+      float* p = &s.mesh.positions[3 * v];
+      const Vec3f q(p[0], p[1], p[2]);
+      const Vec3f d = q / std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z);
+      for (int c = 0; c < 3; ++c) p[c] = d[c] * true_radius(d);
+    }
+    s.positions_changed();
+    return s;
+  };
+  // mean |radius − true radius| over the vertices of the pit and its rim
+  const auto pit_error = [&](const dr::HostScene& s) {
+    double e = 0.0;
+    int n = 0;
+    for (std::size_t v = 0; v * 3 < s.mesh.positions.size(); ++v) {
+      const float* p = &s.mesh.positions[3 * v];
+      const Vec3f q(p[0], p[1], p[2]);
+      const float len = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z);
+      if (q.y / len <= 0.7f) continue;
+      e += std::abs(double(len) - double(true_radius(q / len)));
+      ++n;
+    }
+    REQUIRE(n > 20);
+    return e / n;
+  };
+  const dr::HostScene truth = pitted(glass_sphere(1.45f, Vec3f(0.0f)));
+  const Photos photos = photograph(truth, 12, 48);
+  pipeline::Stage2Config cfg;
+  cfg.iterations = 160;
+  cfg.freeze_geometry = 10;
+  cfg.rays_per_iteration = 1024;
+  cfg.optimize_positions = true;
+  cfg.optimize_ior = false;
+  cfg.optimize_absorption = false;
+  cfg.ior_init = 1.45f;
+  cfg.sigma_init = 0.0f;
+  cfg.lr_positions = 1e-2f;
+  cfg.lambda = 4.0;
+  const double before = pit_error(glass_sphere(1.45f, Vec3f(0.0f)));
+  const auto run = [&](const pipeline::Stage2Config& c) {
+    dr::HostScene s = glass_sphere(1.45f, Vec3f(0.0f));
+    pipeline::Stage2 st(s, views_of(photos), mask_views_of(photos), c);
+    while (!st.done()) st.step();
+    CHECK(dg::mesh_genus(s.mesh.triangles, s.mesh.num_vertices()).closed);
+    return pit_error(s);
+  };
+  // Measured (48² photographs, 2×2 samples each; mean error 0.0234 at the
+  // start): the silhouettes alone 0.0158 (they flatten the cap to the lid);
+  // one jittered ray per pixel, colour alone, 0.0221 (the ray's variance
+  // inside the pixel is part of its loss, and the fit flattens the refracted
+  // image); two rays per pixel in pairs, colour alone 0.0160, with the
+  // silhouettes 0.0126.
+  pipeline::Stage2Config masks = cfg, colour = cfg, both = cfg, cfg_one = cfg;
+  cfg_one.weights.mask = 0.0f;
+  cfg_one.pixel_samples = 1;
+  masks.weights.color = masks.weights.tone = 0.0f;
+  colour.weights.mask = 0.0f;
+  for (pipeline::Stage2Config* c : {&colour, &both}) {
+    c->pixel_samples = 2;
+    c->pixel_loss = pipeline::PixelLoss::pairs;
+  }
+  const double by_masks = run(masks), by_colour = run(colour), by_both = run(both), one_ray = run(cfg_one);
+  MESSAGE("pit error: start " << before << ", silhouettes alone " << by_masks << ", colour alone " << by_colour
+                              << ", both " << by_both << ", colour alone with one ray per pixel " << one_ray);
+  CHECK(by_colour < 0.8 * before);
+  CHECK(by_colour < 0.85 * one_ray);
+  CHECK(by_both < 0.85 * by_masks);
 }
 
 TEST_CASE("stage 2 checkpoint: a resumed fit repeats the uninterrupted one, and another run's file is refused") {

@@ -4,6 +4,7 @@
 
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -113,4 +114,44 @@ TEST_CASE("ray_batch_gradient clip_geometry: one ray's vertex gradient is scaled
   const dr::RayBatchResult rl = dr::ray_batch_gradient(s, rays, loss, loose, opt, false, float(4.0 * norm));
   CHECK(rl.clipped_rays == 0);
   CHECK(rel_l2(loose.positions, free.positions) < 1e-6);
+}
+
+TEST_CASE("ray_batch_gradient clip_ior: each ray's IoR derivative is capped in magnitude, the rest untouched") {
+  dr::HostScene s = dt_test::sphere_scene();
+  const ds::Camera cam = ds::protocol_camera(Vec3f(0.3f, 0.4f, 0.87f), 24, 24);
+  std::vector<dr::BatchRay> rays;
+  for (int x : {9, 12, 15}) {
+    const ds::Ray r = cam.generate_ray(x, 11);
+    rays.push_back({r.origin, r.direction});
+  }
+  const auto loss = [](std::int32_t, const Vec3f& L, Vec3f& dL) {
+    dL = 2.0f * L;
+    return double(glm::dot(L, L));
+  };
+  dr::PassOptions opt;
+  opt.trace.max_depth = 4;
+  // each ray's own IoR derivative
+  std::vector<float> each;
+  for (const dr::BatchRay& r : rays) {
+    dr::SceneGradient g(s);
+    dr::ray_batch_gradient(s, std::vector<dr::BatchRay>{r}, loss, g, opt);
+    each.push_back(g.ior[0]);
+  }
+  std::vector<float> mags;
+  for (float d : each) mags.push_back(std::abs(d));
+  std::sort(mags.begin(), mags.end());
+  REQUIRE(mags[0] > 0.0f);
+  REQUIRE(mags[1] < 0.9f * mags[2]);  // a cap between the two largest clips one ray
+  const float cap = 0.5f * (mags[1] + mags[2]);
+  double expected = 0.0;
+  for (float d : each) expected += std::abs(d) > cap ? (d > 0.0f ? cap : -cap) : d;
+  dr::SceneGradient free(s), capped(s);
+  dr::ray_batch_gradient(s, rays, loss, free, opt);
+  const dr::RayBatchResult rc = dr::ray_batch_gradient(s, rays, loss, capped, opt, false, 0.0f, cap);
+  CHECK(rc.clipped_ior_rays == 1);
+  CHECK(rc.clipped_rays == 0);
+  CHECK(capped.ior[0] == doctest::Approx(expected).epsilon(1e-4));
+  CHECK(capped.ior[0] != doctest::Approx(free.ior[0]).epsilon(1e-3));
+  CHECK(rel_l2(capped.positions, free.positions) < 1e-6);
+  CHECK(rel_l2(capped.absorption, free.absorption) < 1e-6);
 }

@@ -8,25 +8,43 @@
 //       al. 2022). On a glass sphere (tests/pipeline/materials) plain L2 found
 //       IoR 1.4477 for 1.45 and relative L2 1.4378, biased by the one-ray
 //       noise in its denominator, so plain L2 is the pipeline's default;
+//   colour, log L2:      Σ_ch (log(1 + ĉ) − log(1 + c))²      d/dĉ = 2 (log(1 + ĉ) − log(1 + c)) / (1 + ĉ)
+//       bounded per ray in an HDR scene: a ray on the sun (radiance in the
+//       thousands) weighs like a ray on a bright sky, not 10⁷ times more, and
+//       its derivative is damped by 1 / (1 + ĉ). Negative radiance (never
+//       from the tracer) is clamped to 0 for this variant;
 //   tone:                (1 − cos(ĉ, c))², cos = ĉ·c / (|ĉ||c|)
 //       d cos/dĉ = c / (|ĉ||c|) − cos ĉ / |ĉ|²: the hue that absorption sets
 //       (DiffTrans' colour-direction term); 0 with no gradient when either
 //       vector is below 1e-6 in length.
 #pragma once
 
+#include <cmath>
+
 #include "difftrans/ad/glm.hpp"
 
 namespace difftrans::losses {
+
+enum class ColourLoss : int { l2, relative_l2, log_l2 };
 
 struct RayColourLoss {
   double colour = 0.0, tone = 0.0;
   Vec3f dcolour{0.0f}, dtone{0.0f};  // d/dĉ
 };
 
-inline RayColourLoss ray_colour_loss(const Vec3f& rendered, const Vec3f& target, bool relative_l2, bool with_tone) {
+inline RayColourLoss ray_colour_loss(const Vec3f& rendered, const Vec3f& target, ColourLoss kind, bool with_tone) {
   RayColourLoss out;
   for (int ch = 0; ch < 3; ++ch) {
-    const float denom = relative_l2 ? rendered[ch] * rendered[ch] + 0.01f : 1.0f, d = rendered[ch] - target[ch];
+    if (kind == ColourLoss::log_l2) {
+      const double r = rendered[ch] > 0.0f ? double(rendered[ch]) : 0.0;
+      const double t = target[ch] > 0.0f ? double(target[ch]) : 0.0;
+      const double d = std::log1p(r) - std::log1p(t);
+      out.colour += d * d;
+      out.dcolour[ch] = rendered[ch] > 0.0f ? float(2.0 * d / (1.0 + r)) : 0.0f;
+      continue;
+    }
+    const float denom = kind == ColourLoss::relative_l2 ? rendered[ch] * rendered[ch] + 0.01f : 1.0f;
+    const float d = rendered[ch] - target[ch];
     out.colour += double(d) * d / denom;
     out.dcolour[ch] = 2.0f * d / denom;
   }

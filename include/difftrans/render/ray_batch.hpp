@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdint>
 #include <memory>
+#include <stdexcept>
 #include <vector>
 
 #include "difftrans/ad/block_gradients.hpp"
@@ -27,26 +28,41 @@ struct RayBatchResult {
   PassStats stats;
   std::vector<Vec3f> radiance;  // per ray, when asked for
   std::int64_t clipped_rays = 0;  // rays whose vertex gradient was clipped
+  std::int64_t clipped_ior_rays = 0;  // rays whose IoR derivative was clipped
 };
 
-// For every ray i: L = trace(ray i); loss(i, L, dL) returns the ray's loss and
-// writes dLoss/dL; the gradient of the summed loss w.r.t. every buffer marked
-// in s.differentiate is added to `grad`. `loss` is called concurrently from
-// the pool's workers (for different i). Rays whose tape overflows contribute
-// their loss but no gradient (counted in stats.overflowed_rays).
+// Rays in groups of `group` consecutive rays — the samples of one pixel:
+// every ray of group j is traced on one tape, loss(j, L, dL) sees their
+// radiances L[0 .. group) and writes dLoss/dL[k] for each, and the tape is
+// swept back once. A loss of the pixel's mean over its samples, or of the
+// product of two samples' residuals (an unbiased (E ĉ − c)²), needs the
+// whole group before any adjoint is known. The gradient of the summed loss
+// w.r.t. every buffer marked in s.differentiate is added to `grad`. `loss`
+// is called concurrently from worker threads (distinct j). A group whose
+// tape overflows (PassOptions::max_tape_nodes, all its rays together) adds
+// its loss but no gradient (its rays count in stats.overflowed_rays).
 //
-// The rays are cut into fixed blocks (ad/block_gradients.hpp), so the
+// The groups are cut into fixed blocks (ad/block_gradients.hpp), so the
 // gradient and the loss are the same bit for bit for any number of threads.
 //
-// clip_geometry > 0: each ray's gradient w.r.t. the vertices (positions and
+// clip_geometry > 0: each group's gradient w.r.t. the vertices (positions and
 // normals together) is scaled down to at most that L2 norm before it is
 // added — a robust gradient against the few rays whose deep, chaotic paths
-// carry huge vertex derivatives (RayBatchResult::clipped_rays counts them).
-template <class T = float, class Loss>
-RayBatchResult ray_batch_gradient(const HostScene& s, const std::vector<BatchRay>& rays, Loss&& loss,
+// carry huge vertex derivatives (RayBatchResult::clipped_rays counts the
+// groups clipped). clip_ior > 0: likewise the group's derivative w.r.t. the
+// IoR, at most that in magnitude (RayBatchResult::clipped_ior_rays). Near the
+// critical angle the Fresnel reflectance has a square-root singularity in
+// the IoR (cos θt = √(1 − η² sin² θi)), so a ray's IoR derivative has a heavy
+// tail: on spot-clear (true mesh, depth 4) a few rays decide the sign of a
+// batch's IoR gradient (docs/stage2-diagnostics.md, "ior").
+template <class T = float, class GroupLoss>
+RayBatchResult ray_group_gradient(const HostScene& s, const std::vector<BatchRay>& rays, int group, GroupLoss&& loss,
                                   SceneGradient& grad, const PassOptions& opt = {}, bool keep_radiance = false,
-                                  float clip_geometry = 0.0f) {
+                                  float clip_geometry = 0.0f, float clip_ior = 0.0f) {
   using V = ad::Var<T>;
+  if (group < 1 || rays.size() % std::size_t(group) != 0)
+    throw std::invalid_argument("ray_group_gradient: the ray count is not a multiple of the group size");
+  const std::int64_t groups = std::int64_t(rays.size()) / group;
   RayBatchResult out;
   if (keep_radiance) out.radiance.assign(rays.size(), Vec3f(0.0f));
   const SceneView view = s.view(true, true);
@@ -55,53 +71,72 @@ RayBatchResult ray_batch_gradient(const HostScene& s, const std::vector<BatchRay
   for (int b = 0; b < ad::max_param_buffers; ++b)  // only what is differentiated gets block copies
     if (!(b < param_count && (s.differentiate[b] || (b == param_normals && s.differentiate[param_positions]))))
       params.buffers[b].gradient = nullptr;
-  // fixed blocks of rays, each summed into its own gradient copy: the same
+  // fixed blocks of groups, each summed into its own gradient copy: the same
   // result bit for bit whatever the number of threads (ad/block_gradients.hpp)
-  ad::BlockGradients blocks(params, std::int64_t(rays.size()));
+  ad::BlockGradients blocks(params, groups);
   ThreadPool& pool = ThreadPool::global();
   detail::StatsPerWorker st(pool.size());
   std::vector<double> losses(std::size_t(blocks.count()), 0.0);
-  std::vector<std::int64_t> clipped(std::size_t(blocks.count()), 0);
+  std::vector<std::int64_t> clipped(std::size_t(blocks.count()), 0), clipped_ior(std::size_t(blocks.count()), 0);
   detail::WorkerTapes<T> tapes(pool.size(), opt);
   pool.parallel_for(blocks.count(), 1, [&](std::int64_t kb, std::int64_t ke, int w) {
     PassStats& ps = st.per[std::size_t(w)];
+    std::vector<Vec3<V>> L(static_cast<std::size_t>(group));
+    std::vector<Vec3f> value(static_cast<std::size_t>(group)), adjoint(static_cast<std::size_t>(group));
     for (std::int64_t k = kb; k < ke; ++k) {
       ad::ParamReader<V> reader = tapes.reader(w, &blocks.set(k));
       ad::Tape<T>* tape = reader.tape();
-      for (std::int64_t i = blocks.begin(k); i < blocks.end(k); ++i) {
+      for (std::int64_t j = blocks.begin(k); j < blocks.end(k); ++j) {
         tape->reset();
         reader.clear();
-        const BatchRay& r = rays[std::size_t(i)];
-        Vec3<V> L;
-        s.with_escape([&](const auto& escape) {
-          L = trace<V>(view, s.accel(), reader, r.origin, r.direction, opt.trace, &ps.trace, escape);
-        });
-        ++ps.rays;
-        ps.tape_nodes += tape->size();
-        ps.max_tape_nodes = tape->size() > ps.max_tape_nodes ? tape->size() : ps.max_tape_nodes;
-        const Vec3f value(float(L.x.value), float(L.y.value), float(L.z.value));
-        if (keep_radiance) out.radiance[std::size_t(i)] = value;
-        Vec3f adjoint(0.0f);
-        losses[std::size_t(k)] += loss(std::int32_t(i), value, adjoint);
+        for (int q = 0; q < group; ++q) {
+          const std::size_t i = std::size_t(j) * std::size_t(group) + std::size_t(q);
+          const BatchRay& r = rays[i];
+          const auto before = tape->size();
+          s.with_escape([&](const auto& escape) {
+            L[std::size_t(q)] = trace<V>(view, s.accel(), reader, r.origin, r.direction, opt.trace, &ps.trace, escape);
+          });
+          ++ps.rays;
+          const std::int32_t nodes = std::int32_t(tape->size() - before);
+          ps.tape_nodes += nodes;
+          ps.max_tape_nodes = nodes > ps.max_tape_nodes ? nodes : ps.max_tape_nodes;
+          const Vec3<V>& c = L[std::size_t(q)];
+          value[std::size_t(q)] = Vec3f(float(c.x.value), float(c.y.value), float(c.z.value));
+          if (keep_radiance) out.radiance[i] = value[std::size_t(q)];
+          adjoint[std::size_t(q)] = Vec3f(0.0f);
+        }
+        losses[std::size_t(k)] += loss(std::int64_t(j), static_cast<const Vec3f*>(value.data()), adjoint.data());
         if (tape->overflowed() || reader.overflowed()) {
-          ++ps.overflowed_rays;
+          ps.overflowed_rays += group;
           reader.clear();
           continue;
         }
-        if (adjoint == Vec3f(0.0f)) {
+        bool any = false;
+        for (const Vec3f& a : adjoint) any = any || a != Vec3f(0.0f);
+        if (!any) {
           reader.clear();
           continue;
         }
         tape->zero_adjoints();
-        for (int c = 0; c < 3; ++c) tape->seed(L[c], T(adjoint[c]));
+        for (int q = 0; q < group; ++q)
+          for (int c = 0; c < 3; ++c) tape->seed(L[std::size_t(q)][c], T(adjoint[std::size_t(q)][c]));
         tape->propagate();
-        if (clip_geometry > 0.0f) {  // this ray's gradient w.r.t. the vertices (positions and normals), clipped
-          const T n2 = reader.adjoint_norm2(param_positions) + reader.adjoint_norm2(param_normals);
+        if (clip_geometry > 0.0f || clip_ior > 0.0f) {  // this group's gradients, clipped
           T scale[ad::max_param_buffers];
           for (T& x : scale) x = T(1);
-          if (n2 > T(clip_geometry) * T(clip_geometry)) {
-            scale[param_positions] = scale[param_normals] = T(clip_geometry) / std::sqrt(n2);
-            ++clipped[std::size_t(k)];
+          if (clip_geometry > 0.0f) {  // w.r.t. the vertices (positions and normals together)
+            const T n2 = reader.adjoint_norm2(param_positions) + reader.adjoint_norm2(param_normals);
+            if (n2 > T(clip_geometry) * T(clip_geometry)) {
+              scale[param_positions] = scale[param_normals] = T(clip_geometry) / std::sqrt(n2);
+              ++clipped[std::size_t(k)];
+            }
+          }
+          if (clip_ior > 0.0f) {
+            const T n2 = reader.adjoint_norm2(param_ior);
+            if (n2 > T(clip_ior) * T(clip_ior)) {
+              scale[param_ior] = T(clip_ior) / std::sqrt(n2);
+              ++clipped_ior[std::size_t(k)];
+            }
           }
           reader.scatter_scaled(scale);
         } else {
@@ -115,7 +150,20 @@ RayBatchResult ray_batch_gradient(const HostScene& s, const std::vector<BatchRay
   out.stats = st.total();
   for (double l : losses) out.loss += l;
   for (std::int64_t c : clipped) out.clipped_rays += c;
+  for (std::int64_t c : clipped_ior) out.clipped_ior_rays += c;
   return out;
+}
+
+// One ray per group: loss(i, L, dL) returns ray i's loss and writes
+// dLoss/dL (see ray_group_gradient for the rest).
+template <class T = float, class Loss>
+RayBatchResult ray_batch_gradient(const HostScene& s, const std::vector<BatchRay>& rays, Loss&& loss,
+                                  SceneGradient& grad, const PassOptions& opt = {}, bool keep_radiance = false,
+                                  float clip_geometry = 0.0f, float clip_ior = 0.0f) {
+  return ray_group_gradient<T>(
+      s, rays, 1,
+      [&loss](std::int64_t i, const Vec3f* L, Vec3f* dL) { return loss(std::int32_t(i), L[0], dL[0]); }, grad, opt,
+      keep_radiance, clip_geometry, clip_ior);
 }
 
 }  // namespace difftrans::render
