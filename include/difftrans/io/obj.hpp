@@ -5,6 +5,7 @@
 #include <tiny_obj_loader.h>
 
 #include <cerrno>
+#include <cstddef>
 #include <cstdio>
 #include <cstdlib>
 #include <sstream>
@@ -14,8 +15,13 @@
 namespace difftrans::io {
 namespace detail {
 
+// Most vertices of one OBJ face: tinyobjloader stores the count in an
+// unsigned char, so a larger polygon would be read as another one.
+inline constexpr std::size_t max_obj_face_vertices = 255;
+
 // Where the "v" and "f" statements of an OBJ text are, checked for what
-// tinyobjloader accepts silently (it reads "nan" or "abc" as 0).
+// tinyobjloader accepts silently (it reads "nan" or "abc" as 0, and a face's
+// vertex count modulo 256).
 struct ObjStatements {
   std::vector<long> vertex_lines;
   std::vector<long> face_lines;  // faces with 3 or more vertices, in file order
@@ -69,6 +75,10 @@ inline ObjStatements scan_obj(const std::string& text, const std::filesystem::pa
       st.vertex_lines.push_back(line);
     } else if (i + 1 < end && text[i] == 'f' && obj_space(text[i + 1])) {
       const auto t = tokens(i + 1);
+      if (t.size() > max_obj_face_vertices)
+        throw Error(file, "face with " + std::to_string(t.size()) + " vertices: at most " +
+                              std::to_string(max_obj_face_vertices) + " are read (tinyobjloader keeps a face's vertex "
+                              "count in one byte); split the polygon into triangles", line);
       for (const auto& tok : t) {
         char* stop = nullptr;
         errno = 0;
