@@ -163,6 +163,7 @@ inline Split load_transforms(const std::filesystem::path& path, const LoadOption
         for (int c = 0; c < 4; ++c) f.camera_to_world[c][r] = m[size_t(r) * 4 + size_t(c)];
       check_camera_matrix(f.camera_to_world, path, fr.field("transform_matrix"));
       if (options.read_pixels) read_frame_pixels(f, path, options.masks, warnings);
+      else if (options.check_sizes) check_frame_headers(f, path);
       split.frames.push_back(std::move(f));
     } catch (const Error& e) {
       if (!options.skip_bad_frames) throw;
@@ -256,6 +257,19 @@ inline Scene load_scene(const std::filesystem::path& dir, const LoadOptions& opt
     if (!s->frames.empty() && objects == 0)
       scene.warnings.push_back(s->file.string() + ": every frame is environment_only");
   }
+  // masks read, none with an object pixel: nothing to reconstruct (each empty
+  // mask was warned about as it was read)
+  size_t masks = 0, empty = 0;
+  std::filesystem::path first;
+  for (const auto& f : scene.train.frames)
+    if (!f.environment_only && !f.mask.inside.empty()) {
+      if (masks++ == 0) first = mask_origin(f);
+      empty += !has_foreground(f.mask);
+    }
+  if (masks > 0 && empty == masks)
+    throw Error(scene.train.file, "no foreground pixel in any mask: the " + std::to_string(masks) +
+                                      " masks of the training views are all empty (the first: " +
+                                      first.string() + ")");
   return scene;
 }
 
