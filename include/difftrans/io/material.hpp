@@ -167,7 +167,11 @@ inline Material read_material(const std::filesystem::path& path) {
     const std::filesystem::path grid_path = std::filesystem::path(m.grid_file).is_absolute()
                                                 ? std::filesystem::path(m.grid_file)
                                                 : path.parent_path() / m.grid_file;
-    m.grid = read_absorption_grid(grid_path);
+    try {
+      m.grid = read_absorption_grid(grid_path);
+    } catch (const Error& e) {  // say which file named it
+      throw Error(e.file(), e.reason() + " (the absorption grid that " + path.string() + " names)", e.line());
+    }
   } else {
     ar.fail("type", "'" + type + "' is none of \"none\", \"homogeneous\", \"grid\"");
   }

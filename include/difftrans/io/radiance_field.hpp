@@ -85,11 +85,17 @@ inline scene::RadianceField read_radiance_field(const std::filesystem::path& jso
   if (!(f.step_voxels > 0.0f)) top.fail("step_voxels", "must be > 0");
   if (!(f.min_transmittance >= 0.0f && f.min_transmittance < 1.0f)) top.fail("min_transmittance", "must lie in [0, 1)");
   const std::filesystem::path raw = json_path.parent_path() / top.string("values");
-  const std::string bytes = detail::read_file_text(raw);
+  std::string bytes;
+  try {
+    bytes = detail::read_file_text(raw);
+  } catch (const Error& e) {  // say which file named it
+    throw Error(raw, e.reason() + " (the \"values\" of " + json_path.string() + ")");
+  }
   const std::size_t want = f.vertex_count() * 4 * sizeof(float);
   if (bytes.size() != want)
     throw Error(raw, "holds " + std::to_string(bytes.size()) + " bytes; res " + std::to_string(f.res.x) + " x " +
-                         std::to_string(f.res.y) + " x " + std::to_string(f.res.z) + " needs " + std::to_string(want));
+                         std::to_string(f.res.y) + " x " + std::to_string(f.res.z) + " in " + json_path.string() +
+                         " needs " + std::to_string(want));
   f.values.resize(f.vertex_count() * 4);
   std::memcpy(f.values.data(), bytes.data(), want);
   for (std::size_t i = 0; i < f.values.size(); ++i)
