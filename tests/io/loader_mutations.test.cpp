@@ -125,6 +125,9 @@ std::string replaced(std::string text, const std::string& from, const std::strin
   return text.replace(at, from.size(), to);
 }
 
+// A token of a megabyte: messages quoting it must cut it short.
+const std::string long_token(1 << 20, 'x');
+
 std::string nested(std::size_t depth) { return std::string(depth, '[') + "1" + std::string(depth, ']'); }
 
 // JSON cases: a value nested deep in place of `value` (a literal in the valid
@@ -297,6 +300,8 @@ TEST_CASE("meshes: OBJ, PLY") {
     for (int i = 0; i < 300; ++i) polygon += " " + std::to_string(1 + i % 3);
     l.special.push_back({"a face of 300 vertices", polygon + "\n", true});
     l.special.push_back({"a coordinate of 1e39", replaced(l.valid, "v 1 1 1", "v 1 1e39 1"), true});
+    l.special.push_back({"a coordinate of a megabyte", replaced(l.valid, "v 1 1 1", "v 1 1 " + long_token), true});
+    l.special.push_back({"a face index of a megabyte", replaced(l.valid, "f 1 5 8 4", "f 1 5 8 " + long_token), true});
     l.special.push_back({"an index beyond the vertices", replaced(l.valid, "f 1 5 8 4", "f 1 5 8 400000000000"), true});
     run_loader(l, 51);
   }
@@ -309,6 +314,8 @@ TEST_CASE("meshes: OBJ, PLY") {
                 "element face 2\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n"
                 "3 0 1 2\n3 0 2 3\n";
       l.special.push_back({"a coordinate of 1e39", replaced(l.valid, "1 1 0\n", "1 1e39 0\n"), true});
+      l.special.push_back({"a coordinate of a megabyte", replaced(l.valid, "1 1 0\n", "1 1 " + long_token + "\n"), true});
+      l.special.push_back({"a header word of a megabyte", replaced(l.valid, "format ascii", "format " + long_token), true});
     } else {
       io::write_ply(l.path, cube);
       l.valid = file_bytes(l.path);
@@ -342,6 +349,7 @@ TEST_CASE("JSON files: transforms, scene.json, material, absorption grid, radian
     l.special.push_back({"a camera at 1e20", replaced(l.valid, "3.25", "1e20"), true});
     l.special.push_back({"w, h 4096 for 8 x 6 images", replaced(l.valid, R"("w": 8, "h": 6)", R"("w": 4096, "h": 4096)"), true});
     l.special.push_back({"w, h 100000", replaced(l.valid, R"("w": 8, "h": 6)", R"("w": 100000, "h": 100000)"), true});
+    l.special.push_back({"a file_path of a megabyte", replaced(l.valid, "images/r_0", long_token), true});
     l.special.push_back({"frames nested deep", replaced(l.valid, R"("frames": [)", R"("frames": )" + nested(80000) + R"(, "x": [)"), true});
     run_loader(l, 71);
     // the same file, cameras only
@@ -374,6 +382,7 @@ TEST_CASE("JSON files: transforms, scene.json, material, absorption grid, radian
     add_json_cases(l, "0.5");
     l.special.push_back({"absorption 1e39 as an array", R"({"ior": 1.5, "absorption": [1, 1e39, 1]})", true});
     l.special.push_back({"an unknown absorption type", replaced(l.valid, "homogeneous", "mystery"), true});
+    l.special.push_back({"an absorption type of a megabyte", replaced(l.valid, "homogeneous", long_token), true});
     run_loader(l, 91);
   }
   {
@@ -452,7 +461,9 @@ TEST_CASE("COLMAP models: binary and text") {
     l.siblings = true;
     if (std::string(name) == "images.txt") {
       l.special.push_back({"a camera at 1e20", replaced(l.valid, "0.5 -0.25 3", "0.5 -0.25 1e20"), true});
+      l.special.push_back({"a coordinate of a megabyte", replaced(l.valid, "0.5 -0.25 3", "0.5 -0.25 " + long_token), true});
     } else {
+      l.special.push_back({"a model name of a megabyte", replaced(l.valid, "PINHOLE", long_token), true});
       l.special.push_back({"declares 100000 x 100000", replaced(l.valid, "PINHOLE 8 6", "PINHOLE 100000 100000"), true});
       l.special.push_back({"declares 4096 x 4096 for 8 x 6 images", replaced(l.valid, "PINHOLE 8 6", "PINHOLE 4096 4096"), true});
     }

@@ -120,7 +120,7 @@ inline Split load_transforms(const std::filesystem::path& path, const LoadOption
       const std::string file_path = fr.string("file_path");
       f.image_path = detail::find_image(detail::resolve(base, file_path));
       if (f.image_path.empty())
-        fr.fail("file_path", "no image '" + file_path + "' (tried it as given and with .exr, .hdr, .png, .jpg) in " +
+        fr.fail("file_path", "no image " + detail::excerpt(file_path) + " (tried it as given and with .exr, .hdr, .png, .jpg) in " +
                                  base.string());
       f.name = f.image_path.stem().string();
       f.environment_only = fr.boolean("environment_only", false);
@@ -137,7 +137,7 @@ inline Split load_transforms(const std::filesystem::path& path, const LoadOption
             std::filesystem::path with_png = mask_file;
             with_png += ".png";
             if (!std::filesystem::is_regular_file(with_png, ec))
-              fr.fail("mask_path", "no mask '" + mask_path + "' in " + base.string());
+              fr.fail("mask_path", "no mask " + detail::excerpt(mask_path) + " in " + base.string());
             mask_file = with_png;
           }
         } else {
@@ -191,7 +191,7 @@ inline SceneSettings load_scene_settings(const std::filesystem::path& path) {
   const std::string env = top.string("environment", "distant");
   if (env == "distant") s.environment = EnvironmentKind::distant;
   else if (env == "near") s.environment = EnvironmentKind::near;
-  else top.fail("environment", "'" + env + "' is neither \"distant\" nor \"near\"");
+  else top.fail("environment", detail::excerpt(env) + " is neither \"distant\" nor \"near\"");
   return s;
 }
 

@@ -64,21 +64,12 @@ inline std::size_t json_too_deep(const std::string& text, int limit) {
   return std::string::npos;
 }
 
-// Cuts `s` to at most `limit` bytes (not inside a UTF-8 sequence), marking the cut with "...".
-inline std::string cut_text(std::string s, std::size_t limit) {
-  if (s.size() <= limit) return s;
-  std::size_t n = limit;
-  while (n > 0 && (static_cast<unsigned char>(s[n]) & 0xC0) == 0x80) --n;
-  s.resize(n);
-  return s + "...";
-}
-
 // Appends the compact text of `v` to `out` until `out` exceeds `limit`
 // characters: the work is bounded by the limit (and the recursion by
 // max_json_depth), whatever the size of the value.
 inline void append_excerpt(std::string& out, const Json& v, std::size_t limit, int depth) {
   if (out.size() > limit) return;
-  const auto quoted = [&](const std::string& s) {
+  const auto string_text = [&](const std::string& s) {
     // a cut string may end inside a UTF-8 sequence: replace what is invalid
     out += Json(s.substr(0, limit + 1)).dump(-1, ' ', false, Json::error_handler_t::replace);
   };
@@ -94,14 +85,14 @@ inline void append_excerpt(std::string& out, const Json& v, std::size_t limit, i
       if (!first) out += ", ";
       first = false;
       if (!array) {
-        quoted(it.key());
+        string_text(it.key());
         out += ": ";
       }
       append_excerpt(out, it.value(), limit, depth + 1);
     }
     out += array ? ']' : '}';
   } else if (v.is_string()) {
-    quoted(v.get_ref<const std::string&>());
+    string_text(v.get_ref<const std::string&>());
   } else {
     out += v.dump();
   }

@@ -82,7 +82,7 @@ inline AbsorptionGrid parse_absorption_grid(const Json& json, const std::filesys
   top.require_object();
   const std::string format = top.string("format", absorption_grid_format);
   if (format != absorption_grid_format)
-    top.fail("format", "'" + format + "' is not \"" + absorption_grid_format + "\"");
+    top.fail("format", detail::excerpt(format) + " is not \"" + absorption_grid_format + "\"");
   AbsorptionGrid g;
   const Json& res = top.at("res");
   if (!res.is_array() || res.size() != 3) top.fail("res", "expected 3 integers [nx, ny, nz], found " + json_excerpt(res));
@@ -173,7 +173,7 @@ inline Material read_material(const std::filesystem::path& path) {
       throw Error(e.file(), e.reason() + " (the absorption grid that " + path.string() + " names)", e.line());
     }
   } else {
-    ar.fail("type", "'" + type + "' is none of \"none\", \"homogeneous\", \"grid\"");
+    ar.fail("type", detail::excerpt(type) + " is none of \"none\", \"homogeneous\", \"grid\"");
   }
   return m;
 }

@@ -68,9 +68,9 @@ inline ObjStatements scan_obj(const std::string& text, const std::filesystem::pa
         errno = 0;
         const double v = std::strtod(t[k].c_str(), &stop);
         if (stop == t[k].c_str() || *stop != '\0')
-          throw Error(file, "vertex coordinate '" + t[k] + "' is not a number", line);
+          throw Error(file, "vertex coordinate " + excerpt(t[k]) + " is not a number", line);
         if (!std::isfinite(v) || std::abs(v) > double(std::numeric_limits<float>::max()))
-          throw Error(file, "vertex coordinate '" + t[k] + "' is not a finite number", line);
+          throw Error(file, "vertex coordinate " + excerpt(t[k]) + " is not a finite number", line);
       }
       st.vertex_lines.push_back(line);
     } else if (i + 1 < end && text[i] == 'f' && obj_space(text[i + 1])) {
@@ -84,9 +84,9 @@ inline ObjStatements scan_obj(const std::string& text, const std::filesystem::pa
         errno = 0;
         const long index = std::strtol(tok.c_str(), &stop, 10);
         if (stop == tok.c_str() || (*stop != '\0' && *stop != '/'))
-          throw Error(file, "face vertex '" + tok + "' is not an index", line);
+          throw Error(file, "face vertex " + excerpt(tok) + " is not an index", line);
         if (errno == ERANGE)  // (found by scripts/fuzz.sh: negating LONG_MIN was undefined)
-          throw Error(file, "face vertex index '" + tok.substr(0, tok.find('/')) + "' is out of range", line);
+          throw Error(file, "face vertex index " + excerpt(tok.substr(0, tok.find('/'))) + " is out of range", line);
         if (index == 0) throw Error(file, "face vertex index 0 (OBJ indices start at 1)", line);
         if (index < 0) {
           const long available = long(st.vertex_lines.size());

@@ -54,7 +54,7 @@ inline scene::RadianceField read_radiance_field(const std::filesystem::path& jso
   top.require_object();
   const std::string format = top.string("format");
   if (format != radiance_field_format)
-    top.fail("format", "'" + format + "' is not \"" + std::string(radiance_field_format) + "\"");
+    top.fail("format", detail::excerpt(format) + " is not \"" + std::string(radiance_field_format) + "\"");
   // three finite numbers under `key`, within the range of a float
   const auto read3 = [&](const std::string& key) {
     const Json& a = top.at(key);
