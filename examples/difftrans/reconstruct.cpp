@@ -7,7 +7,10 @@
 // is rewritten after each stage, and a stage stopped by SIGINT / SIGTERM
 // leaves its checkpoint for the next run.
 #include <chrono>
+#include <exception>
 #include <sstream>
+#include <string>
+#include <vector>
 #include <sys/resource.h>
 
 #include "command.hpp"
@@ -17,6 +20,9 @@
 
 #include "difftrans/io/contact_sheet.hpp"
 #include "difftrans/io/hdr.hpp"
+#include "difftrans/io/image_file.hpp"
+#include "difftrans/io/material.hpp"
+#include "difftrans/io/mesh_file.hpp"
 #include "difftrans/io/png.hpp"
 
 namespace difftrans::cli {
@@ -29,6 +35,37 @@ struct ReconstructOptions {
   ExposureCliOptions exposure;
   std::uint64_t seed = 0;  // 0: each stage's own default
 };
+
+// The stages compare their results with the scene's gt/ files at their end.
+// A comparison is a report: a ground-truth file that cannot be read (or a mesh
+// with no surface to measure) is found here, before any fitting, warned about
+// and left out, so that it cannot fail a run after the work is done. Returns
+// the warnings, also recorded in reconstruct.json.
+std::vector<std::string> check_ground_truth(io::Scene& scene) {
+  std::vector<std::string> skipped;
+  const auto check = [&](fs::path& file, const char* what, const auto& read) {
+    if (file.empty()) return;
+    try {
+      read(file);
+    } catch (const std::exception& e) {
+      skipped.push_back(std::string(e.what()) + "; the comparison with the ground-truth " + what + " is left out");
+      warn(skipped.back());
+      file.clear();
+    }
+  };
+  check(scene.gt.mesh, "mesh", [](const fs::path& f) {
+    const io::Mesh mesh = io::read_mesh(f);
+    double area = 0.0;
+    for (const Vec3i& t : mesh.triangles)
+      area += 0.5 * glm::length(glm::cross(Vec3d(mesh.positions[size_t(t.y)] - mesh.positions[size_t(t.x)]),
+                                           Vec3d(mesh.positions[size_t(t.z)] - mesh.positions[size_t(t.x)])));
+    if (!(area > 0.0)) throw io::Error(f, "no surface to compare with (" + std::to_string(mesh.triangles.size()) +
+                                              " triangles of total area 0)");
+  });
+  check(scene.gt.material, "material", [](const fs::path& f) { io::read_material(f); });
+  check(scene.gt.envmap, "environment map", [](const fs::path& f) { io::read_image(f); });
+  return skipped;
+}
 
 }  // namespace
 
@@ -76,6 +113,7 @@ void add_reconstruct(CLI::App& app) {
     progress("reconstruct: loading " + opt->scene.string());
     io::Scene scene = io::load_scene(opt->scene, load);
     for (const auto& w : scene.warnings) warn(w);
+    const std::vector<std::string> gt_skipped = check_ground_truth(scene);
     const io::Json exposure = apply_exposure_option(scene, opt->exposure);
     if (exposure["source"] != "none" || exposure.contains("reason"))
       progress("reconstruct: exposure " + exposure["scale"].dump() + " (" + exposure["source"].get<std::string>() +
@@ -93,6 +131,8 @@ void add_reconstruct(CLI::App& app) {
     result["scene"] = opt->scene.string();
     result["masks"] = describe(load.masks);
     result["exposure"] = exposure;
+    if (!gt_skipped.empty()) result["ground_truth_skipped"] = gt_skipped;
+    else result.erase("ground_truth_skipped");
     // the record of every finished stage is on disk before the next one
     // starts; during a fit SIGINT / SIGTERM make it save its checkpoint and
     // stop (long_run.hpp), elsewhere they end the program as usual

@@ -108,12 +108,12 @@ void read_fields(const io::Json& j, Config& config, const std::string& where) {
         if (!v.is_number()) throw std::runtime_error(at + ": expected a number");
         const double x = v.get<double>();
         if (!(x >= f.min && x <= f.max))
-          throw std::runtime_error(at + ": " + v.dump() + " lies outside [" + io::Json(f.min).dump() + ", " +
+          throw std::runtime_error(at + ": " + io::json_excerpt(v) + " lies outside [" + io::Json(f.min).dump() + ", " +
                                    io::Json(f.max).dump() + "]");
         value = v.get<T>();
       }
     } catch (const io::Json::exception&) {
-      throw std::runtime_error(at + ": " + v.dump() + " is not of the setting's type");
+      throw std::runtime_error(at + ": " + io::json_excerpt(v) + " is not of the setting's type");
     }
   });
 }

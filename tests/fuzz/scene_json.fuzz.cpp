@@ -1,6 +1,6 @@
 // libFuzzer target: a scene directory's transforms JSON. The input is written
 // as transforms_train.json next to a tiny images/ folder and loaded with
-// cameras only; the loader must give frames with finite, rigid cameras or an
+// cameras only (image headers read); the loader must give frames with finite, rigid cameras or an
 // io::Error — never a crash, hang or sanitizer report.
 #include <cmath>
 #include <cstddef>
@@ -18,7 +18,10 @@ std::filesystem::path scene_dir() {
     const auto d = std::filesystem::temp_directory_path() / ("difftrans_fuzz_" + std::to_string(::getpid()));
     std::filesystem::create_directories(d / "images");
     std::filesystem::create_directories(d / "masks");
-    for (const char* name : {"images/r_0.png", "images/r_1.exr", "masks/r_0.png"}) std::ofstream(d / name) << "x";
+    // 8 x 8 images (the seeds declare w = h = 8): their headers are read to check the declared size
+    difftrans::io::write_image(d / "images/r_0.png", difftrans::io::Image(8, 8, 0.5f));
+    difftrans::io::write_image(d / "images/r_1.exr", difftrans::io::Image(8, 8, 0.5f));
+    difftrans::io::write_mask(d / "masks/r_0.png", difftrans::io::Mask(8, 8, true));
     return d;
   }();
   return dir;

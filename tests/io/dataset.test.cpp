@@ -84,16 +84,79 @@ TEST_CASE("load a scene directory with pixels") {
   CHECK_FALSE(s.from_colmap);
 }
 
-TEST_CASE("cameras only: image files are not opened") {
+TEST_CASE("cameras only, sizes unchecked: image files are not opened") {
   TempDir dir;
   write_scene(dir.path());
   write_text(dir / "images/r_1.exr", "corrupt");
   io::LoadOptions cameras;
   cameras.read_pixels = false;
+  cameras.check_sizes = false;
   const io::Scene s = io::load_scene(dir.path(), cameras);
   CHECK(s.train.frames.size() == 3);
   CHECK(s.train.frames[1].image.rgb.empty());
   CHECK(contains(error_of([&] { io::load_scene(dir.path()); }), (dir / "images/r_1.exr").string() + ": cannot read EXR"));
+}
+
+TEST_CASE("cameras only: w and h are checked at load against the image headers and the size limits") {
+  TempDir dir;
+  write_scene(dir.path());
+  const auto train = dir / "transforms_train.json";
+  io::LoadOptions cameras;
+  cameras.read_pixels = false;
+  CHECK(io::load_scene(dir.path(), cameras).train.frames.size() == 3);
+  const auto with_size = [&](int w, int h) {
+    write_text(train, R"({"camera_angle_x": 0.8, "w": )" + std::to_string(w) + R"(, "h": )" + std::to_string(h) +
+                          R"(, "frames": [{"file_path": "images/r_0", "transform_matrix": )" + identity_at(3) + "}]}");
+    return error_of([&] { io::load_scene(dir.path(), cameras); });
+  };
+  // the image's header disagrees: refused before any rendering, naming the image and the file
+  CHECK(with_size(4096, 4096) == (dir / "images/r_0.png").string() + ": image is 8 x 6 but " + train.string() +
+                                     " declares 4096 x 4096");
+  // beyond the limits: refused naming the file and the frame (no allocation attempted)
+  CHECK(with_size(100000, 100000) == train.string() + ": frames[0]: image size 100000 x 100000 exceeds the limit of "
+                                                      "16384 pixels a side and 64 Mpx in all");
+  // the same with pixels
+  CHECK(error_of([&] { io::load_scene(dir.path()); }) ==
+        train.string() + ": frames[0]: image size 100000 x 100000 exceeds the limit of 16384 pixels a side and 64 Mpx in all");
+  // a corrupt image is found at load too
+  write_scene(dir.path());
+  write_text(dir / "images/r_1.exr", "corrupt");
+  CHECK(contains(error_of([&] { io::load_scene(dir.path(), cameras); }), (dir / "images/r_1.exr").string() + ": cannot read EXR header"));
+}
+
+TEST_CASE("a camera far from the origin is refused at load, naming the file, the frame and the position") {
+  TempDir dir;
+  write_scene(dir.path());
+  const auto train = dir / "transforms_train.json";
+  write_text(train, std::string(R"({"camera_angle_x": 0.8, "w": 8, "h": 6, "frames": [)") +
+                        R"({"file_path": "images/r_0", "transform_matrix": )" + identity_at(3) + "}," +
+                        R"({"file_path": "images/r_0", "transform_matrix": [[1,0,0,1e20],[0,1,0,0],[0,0,1,3],[0,0,0,1]]}]})");
+  CHECK(contains(error_of([&] { io::load_scene(dir.path()); }),
+                 train.string() + ": frames[1].transform_matrix: camera position (1e+20, 0, 3) lies beyond 1e+06 scene units"));
+}
+
+TEST_CASE("masks without a foreground pixel: each is a warning; all of them, an error at load") {
+  TempDir dir;
+  write_scene(dir.path());
+  // r_1's mask empty: a warning, the scene loads
+  io::write_mask(dir / "masks/r_1.png", io::Mask(8, 6));
+  const io::Scene s = io::load_scene(dir.path());
+  CHECK(contains(joined(s.warnings), (dir / "masks/r_1.png").string() + ": the mask of frame r_1 has no foreground pixel"));
+  CHECK_FALSE(contains(joined(s.warnings), "masks/r_0.png"));
+  // both empty (the third frame is environment-only and has no mask to count)
+  io::write_mask(dir / "masks/r_0.png", io::Mask(8, 6));
+  CHECK(error_of([&] { io::load_scene(dir.path()); }) ==
+        (dir / "transforms_train.json").string() + ": no foreground pixel in any mask: the 2 masks of the training "
+                                                   "views are all empty (the first: " + (dir / "masks/r_0.png").string() + ")");
+  // masks from a threshold that nothing passes
+  io::LoadOptions threshold;
+  threshold.masks.source = io::MaskSource::threshold;
+  threshold.masks.threshold = 0.99;
+  CHECK(contains(error_of([&] { io::load_scene(dir.path(), threshold); }), "no foreground pixel in any mask"));
+  // without masks there is nothing to check
+  io::LoadOptions none;
+  none.masks.source = io::MaskSource::none;
+  CHECK(io::load_scene(dir.path(), none).train.frames.size() == 3);
 }
 
 TEST_CASE("w and h may be absent (original NeRF-synthetic): taken from the image") {

@@ -68,6 +68,12 @@ TEST_CASE("material: bad files name the file and the field") {
   CHECK(msg(R"({"ior": 1.5, "absorption": {"type": "grid", "file": "nope.json"}})").find("nope.json: file not found") !=
         std::string::npos);
   CHECK(msg(R"({"ior": 1.5,)").find("m.json:1: malformed JSON") != std::string::npos);
+  // finite as a double, infinite as the float that stores it
+  CHECK(msg(R"({"ior": 1.5, "absorption": [1, 1e39, 3]})") ==
+        (dir / "m.json").string() + ": absorption[1]: 1e+39 is beyond the range of a float (magnitude at most 3.4e38), "
+                                    "the type that stores it");
+  CHECK(msg(R"({"ior": 1.5, "absorption": {"type": "homogeneous", "sigma": [1e39, 0, 0]}})")
+            .find("absorption.sigma[0]: 1e+39 is beyond the range of a float") != std::string::npos);
   CHECK(error_of([&] { io::read_material(dir / "missing.json"); }).find("missing.json: file not found") !=
         std::string::npos);
 }
@@ -101,4 +107,13 @@ TEST_CASE("absorption grid file: layout and bad grids") {
   CHECK(msg(R"({"res": [2, 2, 2], "lo": [0,0,0], "hi": [1,1,1], "sigma": )" + values + "}").find("element 7") !=
         std::string::npos);
   CHECK(msg(R"({"format": "voxels", "res": [2, 2, 2]})").find("format:") != std::string::npos);
+  // beyond the range of the float that stores it: a value, a corner
+  std::string huge = "[";
+  for (int i = 0; i < 24; ++i) huge += (i ? "," : "") + std::string(i == 5 ? "1e39" : "0.5");
+  huge += "]";
+  CHECK(msg(R"({"res": [2, 2, 2], "lo": [0,0,0], "hi": [1,1,1], "sigma": )" + huge + "}") ==
+        (dir / "bad.json").string() + ": sigma: element 5 (vertex 1, channel 2) must be a number in [0, 3.4e38] (the "
+                                      "range of the float that stores it), found 1e+39");
+  CHECK(msg(R"({"res": [2, 2, 2], "lo": [0,-1e39,0], "hi": [1,1,1], "sigma": []})").find("bad.json: lo[1]: -1e+39 is beyond") !=
+        std::string::npos);
 }

@@ -1,6 +1,9 @@
 // OBJ: reading (polygons fanned, errors and warnings with line numbers) and writing.
 #include "difftrans/io/obj.hpp"
 
+#include <cmath>
+#include <string>
+
 #include "io/fixtures.hpp"
 
 using namespace dt_test;
@@ -52,6 +55,33 @@ TEST_CASE("OBJ: bad input gives an Error with file and line") {
         f + ":4: face vertex index '-66666666666666666666666661' is out of range");
   CHECK(bad("v 0 0 0\nf 99999999999999999999999/2 1 1\n") == f + ":2: face vertex index '99999999999999999999999' is out of range");
   CHECK(error_of([&] { io::read_obj(dir / "missing.obj"); }) == (dir / "missing.obj").string() + ": file not found");
+}
+
+TEST_CASE("OBJ: a face of 256 or more vertices is refused at its line; 255 are read in full") {
+  TempDir dir;
+  // a convex polygon of n vertices on the unit circle, after a triangle
+  const auto polygon = [&](int n) {
+    std::string text = "v 0 0 1\nv 1 0 1\nv 0 1 1\nf 1 2 3\n";
+    for (int i = 0; i < n; ++i) {
+      const double a = 2.0 * 3.14159265358979 * i / n;
+      text += "v " + std::to_string(std::cos(a)) + " " + std::to_string(std::sin(a)) + " 0\n";
+    }
+    text += "f";
+    for (int i = 0; i < n; ++i) text += " " + std::to_string(4 + i);
+    const auto path = dir / "polygon.obj";
+    write_text(path, text + "\n");
+    return path;
+  };
+  const io::Mesh m = io::read_obj(polygon(255));
+  CHECK(m.triangles.size() == 1 + 253);  // the whole fan: each vertex of the polygon is used
+  CHECK(m.triangles.back() == difftrans::Vec3i(3, 3 + 253, 3 + 254));
+  for (const int n : {256, 300, 1000}) {
+    const auto path = polygon(n);
+    CHECK(error_of([&] { io::read_obj(path); }) ==
+          path.string() + ":" + std::to_string(4 + n + 1) + ": face with " + std::to_string(n) +
+              " vertices: at most 255 are read (tinyobjloader keeps a face's vertex count in one byte); split the "
+              "polygon into triangles");
+  }
 }
 
 TEST_CASE("OBJ: short and degenerate faces are warnings with lines") {

@@ -80,6 +80,11 @@ TEST_CASE("radiance field file: bad input names the file and the field") {
   CHECK(variant("hi", {1.0, -3.0, 0.5}).find("hi") != std::string::npos);
   CHECK(variant("density_scale", -1.0).find("density_scale") != std::string::npos);
   CHECK(variant("background", {0.1, "x", 0.3}).find("background") != std::string::npos);
+  // finite doubles that a float cannot hold
+  CHECK(variant("hi", {1.0, 1e39, 0.5}).find("bad.json: hi[1]: 1e+39 is beyond the range of a float") != std::string::npos);
+  CHECK(variant("density_scale", 1e39).find("bad.json: density_scale: 1e+39 is beyond the range of a float") !=
+        std::string::npos);
+  CHECK(variant("occupancy_sigma", 1e39).find("occupancy_sigma: 1e+39 is beyond") != std::string::npos);
   CHECK(variant("values", "absent.f32").find("absent.f32: file not found") != std::string::npos);
   // a non-finite value in the raw file
   std::vector<float> raw = f.values;

@@ -72,6 +72,7 @@ inline Split load_colmap(const std::filesystem::path& model_dir, const std::file
                             im.where + " (" + im.name + ") has no mask" +
                             (masks.empty() ? std::string() : " in " + masks.string()));
       if (options.read_pixels) read_frame_pixels(f, cameras_file, options.masks, warnings);
+      else if (options.check_sizes) check_frame_headers(f, cameras_file);
       split.frames.push_back(std::move(f));
     } catch (const Error& e) {
       if (!options.skip_bad_frames) throw;

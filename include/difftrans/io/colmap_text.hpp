@@ -42,8 +42,8 @@ inline double colmap_number(const std::string& token, const std::filesystem::pat
                             const char* what) {
   char* stop = nullptr;
   const double v = std::strtod(token.c_str(), &stop);
-  if (token.empty() || *stop != '\0') throw Error(file, std::string(what) + " '" + token + "' is not a number", line);
-  if (!std::isfinite(v)) throw Error(file, std::string(what) + " '" + token + "' is not finite", line);
+  if (token.empty() || *stop != '\0') throw Error(file, std::string(what) + " " + excerpt(token) + " is not a number", line);
+  if (!std::isfinite(v)) throw Error(file, std::string(what) + " " + excerpt(token) + " is not finite", line);
   return v;
 }
 
@@ -62,9 +62,9 @@ inline std::map<std::uint32_t, ColmapCamera> read_colmap_cameras(const std::file
     if (t.size() < 4) throw Error(path, "expected CAMERA_ID MODEL WIDTH HEIGHT PARAMS...", ln);
     const double id = detail::colmap_number(t[0], path, ln, "camera id");
     if (id != std::floor(id) || id < 0 || id > 4294967295.0)
-      throw Error(path, "camera id '" + t[0] + "' is not an integer in 0..4294967295", ln);
+      throw Error(path, "camera id " + detail::excerpt(t[0]) + " is not an integer in 0..4294967295", ln);
     const ColmapModel* model = find_colmap_model(t[1]);
-    if (!model) throw Error(path, "camera model '" + t[1] + "' is not a COLMAP model (" + colmap_model_names() + ")", ln);
+    if (!model) throw Error(path, "camera model " + detail::excerpt(t[1]) + " is not a COLMAP model (" + colmap_model_names() + ")", ln);
     const double w = detail::colmap_number(t[2], path, ln, "width");
     const double h = detail::colmap_number(t[3], path, ln, "height");
     std::vector<double> params;
@@ -94,7 +94,7 @@ inline std::vector<ColmapImage> read_colmap_images(const std::filesystem::path& 
     ColmapImage im;
     const double id = detail::colmap_number(t[0], path, ln, "image id");
     if (id != std::floor(id) || id < 0 || id > 4294967295.0)
-      throw Error(path, "image id '" + t[0] + "' is not an integer in 0..4294967295", ln);
+      throw Error(path, "image id " + detail::excerpt(t[0]) + " is not an integer in 0..4294967295", ln);
     im.id = std::uint32_t(id);
     double v[8];
     for (int k = 0; k < 8; ++k)
@@ -103,7 +103,7 @@ inline std::vector<ColmapImage> read_colmap_images(const std::filesystem::path& 
     im.t = Vec3d(v[4], v[5], v[6]);
     const double cam_id = detail::colmap_number(t[8], path, ln, "camera id");
     if (cam_id != std::floor(cam_id) || cam_id < 0 || cam_id > 4294967295.0)
-      throw Error(path, "camera id '" + t[8] + "' is not an integer in 0..4294967295", ln);
+      throw Error(path, "camera id " + detail::excerpt(t[8]) + " is not an integer in 0..4294967295", ln);
     im.camera_id = std::uint32_t(cam_id);
     size_t at = 0;
     for (int k = 0; k < 9; ++k) {

@@ -120,7 +120,7 @@ inline Split load_transforms(const std::filesystem::path& path, const LoadOption
       const std::string file_path = fr.string("file_path");
       f.image_path = detail::find_image(detail::resolve(base, file_path));
       if (f.image_path.empty())
-        fr.fail("file_path", "no image '" + file_path + "' (tried it as given and with .exr, .hdr, .png, .jpg) in " +
+        fr.fail("file_path", "no image " + detail::excerpt(file_path) + " (tried it as given and with .exr, .hdr, .png, .jpg) in " +
                                  base.string());
       f.name = f.image_path.stem().string();
       f.environment_only = fr.boolean("environment_only", false);
@@ -137,7 +137,7 @@ inline Split load_transforms(const std::filesystem::path& path, const LoadOption
             std::filesystem::path with_png = mask_file;
             with_png += ".png";
             if (!std::filesystem::is_regular_file(with_png, ec))
-              fr.fail("mask_path", "no mask '" + mask_path + "' in " + base.string());
+              fr.fail("mask_path", "no mask " + detail::excerpt(mask_path) + " in " + base.string());
             mask_file = with_png;
           }
         } else {
@@ -163,6 +163,7 @@ inline Split load_transforms(const std::filesystem::path& path, const LoadOption
         for (int c = 0; c < 4; ++c) f.camera_to_world[c][r] = m[size_t(r) * 4 + size_t(c)];
       check_camera_matrix(f.camera_to_world, path, fr.field("transform_matrix"));
       if (options.read_pixels) read_frame_pixels(f, path, options.masks, warnings);
+      else if (options.check_sizes) check_frame_headers(f, path);
       split.frames.push_back(std::move(f));
     } catch (const Error& e) {
       if (!options.skip_bad_frames) throw;
@@ -190,7 +191,7 @@ inline SceneSettings load_scene_settings(const std::filesystem::path& path) {
   const std::string env = top.string("environment", "distant");
   if (env == "distant") s.environment = EnvironmentKind::distant;
   else if (env == "near") s.environment = EnvironmentKind::near;
-  else top.fail("environment", "'" + env + "' is neither \"distant\" nor \"near\"");
+  else top.fail("environment", detail::excerpt(env) + " is neither \"distant\" nor \"near\"");
   return s;
 }
 
@@ -256,6 +257,19 @@ inline Scene load_scene(const std::filesystem::path& dir, const LoadOptions& opt
     if (!s->frames.empty() && objects == 0)
       scene.warnings.push_back(s->file.string() + ": every frame is environment_only");
   }
+  // masks read, none with an object pixel: nothing to reconstruct (each empty
+  // mask was warned about as it was read)
+  size_t masks = 0, empty = 0;
+  std::filesystem::path first;
+  for (const auto& f : scene.train.frames)
+    if (!f.environment_only && !f.mask.inside.empty()) {
+      if (masks++ == 0) first = mask_origin(f);
+      empty += !has_foreground(f.mask);
+    }
+  if (masks > 0 && empty == masks)
+    throw Error(scene.train.file, "no foreground pixel in any mask: the " + std::to_string(masks) +
+                                      " masks of the training views are all empty (the first: " +
+                                      first.string() + ")");
   return scene;
 }
 

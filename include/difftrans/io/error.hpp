@@ -3,10 +3,12 @@
 #pragma once
 
 #include <cctype>
+#include <cstddef>
 #include <cstdio>
 #include <filesystem>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace difftrans::io {
 
@@ -34,6 +36,19 @@ class Error : public std::runtime_error {
 };
 
 namespace detail {
+
+// Cuts `s` to at most `limit` bytes (not inside a UTF-8 sequence), marking the cut with "...".
+inline std::string cut_text(std::string s, std::size_t limit) {
+  if (s.size() <= limit) return s;
+  std::size_t n = limit;
+  while (n > 0 && (static_cast<unsigned char>(s[n]) & 0xC0) == 0x80) --n;
+  s.resize(n);
+  return s + "...";
+}
+
+// Text from a file quoted in a message: between single quotes, cut to 80
+// bytes ("...") so that a runaway token cannot make the message long.
+inline std::string excerpt(const std::string& s) { return "'" + cut_text(s, 80) + "'"; }
 
 // Reads a whole file into memory, or throws an Error that says why not.
 inline std::string read_file_text(const std::filesystem::path& path) {

@@ -9,6 +9,7 @@
 #include <ImfOutputFile.h>
 
 #include <exception>
+#include <string>
 
 #include "difftrans/io/image.hpp"
 
@@ -22,7 +23,15 @@ inline Image read_exr(const std::filesystem::path& path) {
     Imf::InputFile file(path.string().c_str());
     const Imath::Box2i window = file.header().dataWindow();
     const long w = long(window.max.x) - window.min.x + 1, h = long(window.max.y) - window.min.y + 1;
-    if (w <= 0 || h <= 0 || w * h > (long(1) << 31)) throw Error(path, "bad data window");
+    if (w <= 0 || h <= 0 || w * h > max_file_image_pixels)
+      throw Error(path, "data window of " + std::to_string(w) + " x " + std::to_string(h) +
+                            " pixels is empty or beyond the limit of " + std::to_string(max_file_image_pixels) +
+                            " pixels");
+    // every block of scanlines must be in the file before its pixels are allocated (a
+    // truncated file, or a data window larger than the file can hold, is refused here)
+    if (!file.isComplete())
+      throw Error(path, "truncated: the file does not hold every scanline block of its " + std::to_string(w) + " x " +
+                            std::to_string(h) + " data window");
     const Imf::ChannelList& channels = file.header().channels();
     const char* names[3] = {"R", "G", "B"};
     bool rgb = channels.findChannel("R") && channels.findChannel("G") && channels.findChannel("B");

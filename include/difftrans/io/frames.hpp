@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -87,8 +88,10 @@ struct Split {
 };
 
 struct LoadOptions {
-  bool read_pixels = true;       // false: cameras and paths only; image files are not opened (unless w, h are absent
-                                 // or masks may come from the alpha channel: then only the header is read)
+  bool read_pixels = true;       // false: cameras and paths only; of the images, only headers are read (to check
+                                 // the declared sizes, and where w, h are absent or masks may come from alpha)
+  bool check_sizes = true;       // read_pixels false: each image's (and mask file's) header is read to check the
+                                 // declared size; false: image files are not opened unless needed as above
   bool skip_bad_frames = false;  // true: a bad frame becomes a warning and is left out, instead of an Error
   MaskOptions masks;
 };
@@ -96,9 +99,17 @@ struct LoadOptions {
 // Largest deviation of R^T R from the identity that counts as rigid.
 inline constexpr double rigid_tolerance = 1e-4;
 
+// Farthest a camera may be from the scene's origin (in scene units, on any
+// axis). Rays are traced in float: a million units out, floats are 0.06 units
+// apart, so an object of unit size near the origin can no longer be rendered
+// faithfully, and Embree aborts the program on ray origins beyond 1.8e18.
+// Scenes as docs/conventions.md places them keep cameras a few units away.
+inline constexpr double max_camera_distance = 1e6;
+
 // Throws Error (naming `file`, the field `where` and `line` when known) unless
 // the camera-to-world matrix is finite and rigid: orthonormal rotation with
-// determinant +1 (within rigid_tolerance) and last row 0 0 0 1.
+// determinant +1 (within rigid_tolerance) and last row 0 0 0 1; and its
+// position lies within max_camera_distance of the origin on every axis.
 inline void check_camera_matrix(const Mat4<double>& m, const std::filesystem::path& file, const std::string& where,
                                 long line = 0) {
   const std::string prefix = where.empty() ? std::string() : where + ": ";
@@ -120,15 +131,34 @@ inline void check_camera_matrix(const Mat4<double>& m, const std::filesystem::pa
                           std::to_string(deviation) + ", tolerance " + std::to_string(rigid_tolerance) + ")", line);
   if (glm::determinant(rot) < 0.0)
     throw Error(file, prefix + "camera matrix is not rigid: its rotation part is a reflection (determinant -1)", line);
+  const Vec3d t(m[3]);
+  if (std::max(std::abs(t.x), std::max(std::abs(t.y), std::abs(t.z))) > max_camera_distance) {
+    char text[160];
+    std::snprintf(text, sizeof(text), "camera position (%.6g, %.6g, %.6g) lies beyond %g scene units from the origin",
+                  t.x, t.y, t.z, max_camera_distance);
+    throw Error(file, prefix + text + ": rays are traced in float, too coarse there to render an object near the "
+                                      "origin, and the ray tracer refuses such origins; recentre or rescale the scene",
+                line);
+  }
 }
 
-// Throws Error unless the intrinsics are usable.
+// Largest image accepted from a scene: a side of 16384 pixels and 64 Mpx in
+// all (768 MB as linear float RGB, before any rendering), so that a typo in a
+// declared size fails at load instead of allocating gigabytes.
+inline constexpr int max_image_side = 16384;
+inline constexpr long long max_image_pixels = 64ll << 20;
+
+// Throws Error unless the intrinsics are usable: a positive image size within
+// max_image_side and max_image_pixels, positive finite focal lengths, a finite principal point.
 inline void check_intrinsics(const Intrinsics& k, const std::filesystem::path& file, const std::string& where,
                              long line = 0) {
   const std::string prefix = where.empty() ? std::string() : where + ": ";
-  if (k.width <= 0 || k.height <= 0)
-    throw Error(file, prefix + "image size " + std::to_string(k.width) + " x " + std::to_string(k.height) +
-                          " is not positive", line);
+  const std::string size = std::to_string(k.width) + " x " + std::to_string(k.height);
+  if (k.width <= 0 || k.height <= 0) throw Error(file, prefix + "image size " + size + " is not positive", line);
+  if (k.width > max_image_side || k.height > max_image_side ||
+      static_cast<long long>(k.width) * k.height > max_image_pixels)
+    throw Error(file, prefix + "image size " + size + " exceeds the limit of " + std::to_string(max_image_side) +
+                          " pixels a side and " + std::to_string(max_image_pixels >> 20) + " Mpx in all", line);
   if (!(std::isfinite(k.fx) && k.fx > 0.0 && std::isfinite(k.fy) && k.fy > 0.0))
     throw Error(file, prefix + "focal length is not a positive finite number", line);
   if (!std::isfinite(k.cx) || !std::isfinite(k.cy)) throw Error(file, prefix + "principal point is not finite", line);
@@ -194,21 +224,42 @@ inline std::filesystem::path mask_in_dir(const std::filesystem::path& dir, const
   return {};
 }
 
-// Reads a frame's image and mask and checks their sizes against each other
-// and against the intrinsics (which `declared_by` defines). The mask comes
-// from frame.mask_source (choose_mask): the file, the alpha channel (> level),
-// or the threshold on the image. With masks.source automatic, an alpha channel
-// that is opaque everywhere is no mask (a warning says so); an alpha mask whose
-// background pixels are all black (a cut-out or premultiplied image, where the
-// environment cannot be seen) is warned about.
-inline void read_frame_pixels(Frame& frame, const std::filesystem::path& declared_by, const MaskOptions& o = {},
-                              std::vector<std::string>* warnings = nullptr) {
+// Throws Error naming the image unless its size is the one `declared_by`
+// declares (the intrinsics).
+inline void check_image_size(const Frame& frame, int width, int height, const std::filesystem::path& declared_by) {
   const Intrinsics& k = frame.intrinsics;
-  const auto check_image_size = [&] {
-    if (frame.image.width != k.width || frame.image.height != k.height)
-      throw Error(frame.image_path, "image is " + detail::size_text(frame.image.width, frame.image.height) + " but " +
-                                        declared_by.string() + " declares " + detail::size_text(k.width, k.height));
-  };
+  if (width != k.width || height != k.height)
+    throw Error(frame.image_path, "image is " + detail::size_text(width, height) + " but " + declared_by.string() +
+                                      " declares " + detail::size_text(k.width, k.height));
+}
+
+// Cameras only: checks the sizes of a frame's image and mask file from their
+// headers (no pixels decoded) against the intrinsics `declared_by` defines.
+inline void check_frame_headers(const Frame& frame, const std::filesystem::path& declared_by) {
+  const Vec2i image = image_size(frame.image_path);
+  check_image_size(frame, image.x, image.y, declared_by);
+  if (frame.mask_source != MaskSource::files || frame.mask_path.empty()) return;
+  const Vec2i mask = image_size(frame.mask_path);
+  if (mask != image)
+    throw Error(frame.mask_path, "mask is " + detail::size_text(mask.x, mask.y) + " but its image " +
+                                     frame.image_path.string() + " is " + detail::size_text(image.x, image.y));
+}
+
+// Whether a mask has at least one object pixel.
+inline bool has_foreground(const Mask& mask) {
+  return std::any_of(mask.inside.begin(), mask.inside.end(), [](std::uint8_t v) { return v != 0; });
+}
+
+// Where a frame's mask was taken from, for messages.
+inline std::filesystem::path mask_origin(const Frame& frame) {
+  return frame.mask_source == MaskSource::files ? frame.mask_path : frame.image_path;
+}
+
+namespace detail {
+
+inline void read_frame_image_and_mask(Frame& frame, const std::filesystem::path& declared_by, const MaskOptions& o,
+                                      std::vector<std::string>* warnings) {
+  const auto check_image_size = [&] { io::check_image_size(frame, frame.image.width, frame.image.height, declared_by); };
   if (frame.mask_source == MaskSource::alpha) {
     const Image8 raw = read_image8(frame.image_path, 4);
     frame.image = from_srgb8(raw.data.data(), raw.width, raw.height, 4);
@@ -252,6 +303,24 @@ inline void read_frame_pixels(Frame& frame, const std::filesystem::path& declare
     throw Error(frame.mask_path, "mask is " + detail::size_text(frame.mask.width, frame.mask.height) +
                                      " but its image " + frame.image_path.string() + " is " +
                                      detail::size_text(frame.image.width, frame.image.height));
+}
+
+}  // namespace detail
+
+// Reads a frame's image and mask and checks their sizes against each other
+// and against the intrinsics (which `declared_by` defines). The mask comes
+// from frame.mask_source (choose_mask): the file, the alpha channel (> level),
+// or the threshold on the image. With masks.source automatic, an alpha channel
+// that is opaque everywhere is no mask (a warning says so); an alpha mask whose
+// background pixels are all black (a cut-out or premultiplied image, where the
+// environment cannot be seen) is warned about, and so is a mask with no object
+// pixel in a frame that is not environment_only.
+inline void read_frame_pixels(Frame& frame, const std::filesystem::path& declared_by, const MaskOptions& o = {},
+                              std::vector<std::string>* warnings = nullptr) {
+  detail::read_frame_image_and_mask(frame, declared_by, o, warnings);
+  if (warnings && !frame.environment_only && !frame.mask.inside.empty() && !has_foreground(frame.mask))
+    warnings->push_back(mask_origin(frame).string() + ": the mask of frame " + frame.name +
+                        " has no foreground pixel (the object is nowhere in this view)");
 }
 
 }  // namespace difftrans::io

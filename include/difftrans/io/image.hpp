@@ -34,6 +34,10 @@ struct Image {
   }
 };
 
+// Most pixels of an image read from a file (16384 x 16384, 3 GB as float
+// RGB): a size declared beyond it is refused before anything is allocated.
+inline constexpr long long max_file_image_pixels = 1ll << 28;
+
 // Object mask: 1 inside the object, 0 outside, row-major from the top-left.
 struct Mask {
   int width = 0;

@@ -3,7 +3,9 @@
 #pragma once
 
 #include <cmath>
+#include <cstddef>
 #include <cstdio>
+#include <limits>
 #include <string>
 
 #include "difftrans/io/json.hpp"
@@ -50,16 +52,12 @@ inline constexpr std::size_t max_grid_vertices = std::size_t(512) * 512 * 512;
 
 namespace detail {
 
+// Three numbers under `key`, each finite and within the range of the float that stores it.
 inline Vec3f read_vec3(const JsonReader& r, const std::string& key) {
   const Json& v = r.at(key);
-  if (!v.is_array() || v.size() != 3) r.fail(key, "expected 3 numbers, found " + v.dump());
+  if (!v.is_array() || v.size() != 3) r.fail(key, "expected 3 numbers, found " + json_excerpt(v));
   Vec3f out;
-  for (int c = 0; c < 3; ++c) {
-    if (!v[size_t(c)].is_number()) r.fail(key, "expected 3 numbers, found " + v.dump());
-    const double x = v[size_t(c)].get<double>();
-    if (!std::isfinite(x)) r.fail(key, "element " + std::to_string(c) + " is not finite");
-    out[c] = float(x);
-  }
+  for (int c = 0; c < 3; ++c) out[c] = r.as_float(v[size_t(c)], r.field(key) + "[" + std::to_string(c) + "]");
   return out;
 }
 
@@ -84,14 +82,14 @@ inline AbsorptionGrid parse_absorption_grid(const Json& json, const std::filesys
   top.require_object();
   const std::string format = top.string("format", absorption_grid_format);
   if (format != absorption_grid_format)
-    top.fail("format", "'" + format + "' is not \"" + absorption_grid_format + "\"");
+    top.fail("format", detail::excerpt(format) + " is not \"" + absorption_grid_format + "\"");
   AbsorptionGrid g;
   const Json& res = top.at("res");
-  if (!res.is_array() || res.size() != 3) top.fail("res", "expected 3 integers [nx, ny, nz], found " + res.dump());
+  if (!res.is_array() || res.size() != 3) top.fail("res", "expected 3 integers [nx, ny, nz], found " + json_excerpt(res));
   for (int a = 0; a < 3; ++a) {
     const Json& v = res[size_t(a)];
     if (!v.is_number_integer() || v.get<long long>() < 2 || v.get<long long>() > 4096)
-      top.fail("res", "each resolution must be an integer in [2, 4096], found " + v.dump());
+      top.fail("res", "each resolution must be an integer in [2, 4096], found " + json_excerpt(v));
     g.res[a] = int(v.get<long long>());
   }
   if (g.vertex_count() > max_grid_vertices)
@@ -111,9 +109,11 @@ inline AbsorptionGrid parse_absorption_grid(const Json& json, const std::filesys
   for (std::size_t i = 0; i < expected; ++i) {
     const Json& v = sigma[i];
     const double x = v.is_number() ? v.get<double>() : std::nan("");
-    if (!std::isfinite(x) || x < 0.0)
+    // stored as float: a finite double beyond FLT_MAX would become infinity
+    if (!std::isfinite(x) || x < 0.0 || x > double(std::numeric_limits<float>::max()))
       top.fail("sigma", "element " + std::to_string(i) + " (vertex " + std::to_string(i / 3) + ", channel " +
-                            std::to_string(i % 3) + ") must be a finite number >= 0, found " + v.dump());
+                            std::to_string(i % 3) + ") must be a number in [0, 3.4e38] (the range of the float that "
+                            "stores it), found " + json_excerpt(v));
     g.sigma[i] = float(x);
   }
   return g;
@@ -167,9 +167,13 @@ inline Material read_material(const std::filesystem::path& path) {
     const std::filesystem::path grid_path = std::filesystem::path(m.grid_file).is_absolute()
                                                 ? std::filesystem::path(m.grid_file)
                                                 : path.parent_path() / m.grid_file;
-    m.grid = read_absorption_grid(grid_path);
+    try {
+      m.grid = read_absorption_grid(grid_path);
+    } catch (const Error& e) {  // say which file named it
+      throw Error(e.file(), e.reason() + " (the absorption grid that " + path.string() + " names)", e.line());
+    }
   } else {
-    ar.fail("type", "'" + type + "' is none of \"none\", \"homogeneous\", \"grid\"");
+    ar.fail("type", detail::excerpt(type) + " is none of \"none\", \"homogeneous\", \"grid\"");
   }
   return m;
 }

@@ -5,6 +5,7 @@
 #include <tiny_obj_loader.h>
 
 #include <cerrno>
+#include <cstddef>
 #include <cstdio>
 #include <cstdlib>
 #include <sstream>
@@ -14,8 +15,13 @@
 namespace difftrans::io {
 namespace detail {
 
+// Most vertices of one OBJ face: tinyobjloader stores the count in an
+// unsigned char, so a larger polygon would be read as another one.
+inline constexpr std::size_t max_obj_face_vertices = 255;
+
 // Where the "v" and "f" statements of an OBJ text are, checked for what
-// tinyobjloader accepts silently (it reads "nan" or "abc" as 0).
+// tinyobjloader accepts silently (it reads "nan" or "abc" as 0, and a face's
+// vertex count modulo 256).
 struct ObjStatements {
   std::vector<long> vertex_lines;
   std::vector<long> face_lines;  // faces with 3 or more vertices, in file order
@@ -62,21 +68,25 @@ inline ObjStatements scan_obj(const std::string& text, const std::filesystem::pa
         errno = 0;
         const double v = std::strtod(t[k].c_str(), &stop);
         if (stop == t[k].c_str() || *stop != '\0')
-          throw Error(file, "vertex coordinate '" + t[k] + "' is not a number", line);
+          throw Error(file, "vertex coordinate " + excerpt(t[k]) + " is not a number", line);
         if (!std::isfinite(v) || std::abs(v) > double(std::numeric_limits<float>::max()))
-          throw Error(file, "vertex coordinate '" + t[k] + "' is not a finite number", line);
+          throw Error(file, "vertex coordinate " + excerpt(t[k]) + " is not a finite number", line);
       }
       st.vertex_lines.push_back(line);
     } else if (i + 1 < end && text[i] == 'f' && obj_space(text[i + 1])) {
       const auto t = tokens(i + 1);
+      if (t.size() > max_obj_face_vertices)
+        throw Error(file, "face with " + std::to_string(t.size()) + " vertices: at most " +
+                              std::to_string(max_obj_face_vertices) + " are read (tinyobjloader keeps a face's vertex "
+                              "count in one byte); split the polygon into triangles", line);
       for (const auto& tok : t) {
         char* stop = nullptr;
         errno = 0;
         const long index = std::strtol(tok.c_str(), &stop, 10);
         if (stop == tok.c_str() || (*stop != '\0' && *stop != '/'))
-          throw Error(file, "face vertex '" + tok + "' is not an index", line);
+          throw Error(file, "face vertex " + excerpt(tok) + " is not an index", line);
         if (errno == ERANGE)  // (found by scripts/fuzz.sh: negating LONG_MIN was undefined)
-          throw Error(file, "face vertex index '" + tok.substr(0, tok.find('/')) + "' is out of range", line);
+          throw Error(file, "face vertex index " + excerpt(tok.substr(0, tok.find('/'))) + " is out of range", line);
         if (index == 0) throw Error(file, "face vertex index 0 (OBJ indices start at 1)", line);
         if (index < 0) {
           const long available = long(st.vertex_lines.size());

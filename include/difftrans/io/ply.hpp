@@ -93,9 +93,9 @@ class PlyBody {
     const std::string token = text_.substr(start, pos_ - start);
     char* stop = nullptr;
     const double v = std::strtod(token.c_str(), &stop);
-    if (stop == token.c_str() || *stop != '\0') fail("'" + token + "' is not a number, reading " + what);
+    if (stop == token.c_str() || *stop != '\0') fail(excerpt(token) + " is not a number, reading " + what);
     if (ply_integer(type) && (!std::isfinite(v) || v != std::floor(v)))
-      fail("'" + token + "' is not an integer, reading " + what);
+      fail(excerpt(token) + " is not an integer, reading " + what);
     return v;
   }
 
@@ -189,8 +189,8 @@ inline Mesh parse_ply(const std::string& text, const std::filesystem::path& file
       if (w[1] == "ascii") format = PlyBody::Format::ascii;
       else if (w[1] == "binary_little_endian") format = PlyBody::Format::binary_le;
       else if (w[1] == "binary_big_endian") format = PlyBody::Format::binary_be;
-      else throw Error(file, "unknown format '" + w[1] + "'", line);
-      if (w[2] != "1.0") throw Error(file, "unsupported PLY version '" + w[2] + "'", line);
+      else throw Error(file, "unknown format " + excerpt(w[1]), line);
+      if (w[2] != "1.0") throw Error(file, "unsupported PLY version " + excerpt(w[2]), line);
       have_format = true;
     } else if (w[0] == "element") {
       if (w.size() != 3) throw Error(file, "malformed element line (expected: element NAME COUNT)", line);
@@ -198,7 +198,7 @@ inline Mesh parse_ply(const std::string& text, const std::filesystem::path& file
       errno = 0;
       const unsigned long long count = std::strtoull(w[2].c_str(), &stop, 10);
       if (*stop != '\0' || w[2][0] == '-' || errno == ERANGE)
-        throw Error(file, "element count '" + w[2] + "' is not a non-negative integer", line);
+        throw Error(file, "element count " + excerpt(w[2]) + " is not a non-negative integer", line);
       elements.push_back({w[1], count, {}, line});
     } else if (w[0] == "property") {
       if (elements.empty()) throw Error(file, "property before any element", line);
@@ -206,18 +206,18 @@ inline Mesh parse_ply(const std::string& text, const std::filesystem::path& file
       if (w.size() == 5 && w[1] == "list") {
         p.list = true;
         if (!ply_type(w[2], p.count_type) || !ply_type(w[3], p.type))
-          throw Error(file, "unknown property type in '" + l + "'", line);
+          throw Error(file, "unknown property type in " + excerpt(l), line);
         if (!ply_integer(p.count_type)) throw Error(file, "list count type must be an integer type", line);
         p.name = w[4];
       } else if (w.size() == 3 && w[1] != "list") {
-        if (!ply_type(w[1], p.type)) throw Error(file, "unknown property type '" + w[1] + "'", line);
+        if (!ply_type(w[1], p.type)) throw Error(file, "unknown property type " + excerpt(w[1]), line);
         p.name = w[2];
       } else {
-        throw Error(file, "malformed property line '" + l + "'", line);
+        throw Error(file, "malformed property line " + excerpt(l), line);
       }
       elements.back().properties.push_back(p);
     } else {
-      throw Error(file, "unknown header keyword '" + w[0] + "'", line);
+      throw Error(file, "unknown header keyword " + excerpt(w[0]), line);
     }
   }
   if (!ended) throw Error(file, "the header has no end_header line");
@@ -236,7 +236,7 @@ inline Mesh parse_ply(const std::string& text, const std::filesystem::path& file
     size_t min_size = 0;  // bytes (binary) or characters (ASCII, 2 per value) one instance needs at least
     for (const auto& p : e.properties) min_size += body.ascii() ? 2 : size_t(ply_size(p.list ? p.count_type : p.type));
     if (min_size > 0 && e.count > body.remaining() / min_size + 1)
-      throw Error(file, "element '" + e.name + "' declares " + std::to_string(e.count) +
+      throw Error(file, "element " + excerpt(e.name) + " declares " + std::to_string(e.count) +
                             " entries, more than the file can hold", e.line);
     const bool is_vertex = e.name == "vertex", is_face = e.name == "face";
     int xyz[3] = {-1, -1, -1};

@@ -54,52 +54,54 @@ inline scene::RadianceField read_radiance_field(const std::filesystem::path& jso
   top.require_object();
   const std::string format = top.string("format");
   if (format != radiance_field_format)
-    top.fail("format", "'" + format + "' is not \"" + std::string(radiance_field_format) + "\"");
-  // three finite numbers under `key`
+    top.fail("format", detail::excerpt(format) + " is not \"" + std::string(radiance_field_format) + "\"");
+  // three finite numbers under `key`, within the range of a float
   const auto read3 = [&](const std::string& key) {
     const Json& a = top.at(key);
-    if (!a.is_array() || a.size() != 3) top.fail(key, "expected an array of three numbers, found " + a.dump());
-    double v[3];
-    for (std::size_t i = 0; i < 3; ++i) {
-      if (!a[i].is_number() || !std::isfinite(a[i].get<double>()))
-        top.fail(key, "element " + std::to_string(i) + " is not a finite number");
-      v[i] = a[i].get<double>();
-    }
-    return Vec3d(v[0], v[1], v[2]);
+    if (!a.is_array() || a.size() != 3) top.fail(key, "expected an array of three numbers, found " + json_excerpt(a));
+    float v[3];
+    for (std::size_t i = 0; i < 3; ++i) v[i] = top.as_float(a[i], top.field(key) + "[" + std::to_string(i) + "]");
+    return Vec3f(v[0], v[1], v[2]);
   };
   scene::RadianceField f;
-  const Vec3d res = read3("res");
+  const Vec3f res = read3("res");
   for (int a = 0; a < 3; ++a) {
     if (res[a] != std::floor(res[a]) || res[a] < 2 || res[a] > 4096)
-      top.fail("res", "expected three integers in [2, 4096], found " + top.at("res").dump());
+      top.fail("res", "expected three integers in [2, 4096], found " + json_excerpt(top.at("res")));
     f.res[a] = int(res[a]);
   }
-  f.lo = Vec3f(read3("lo"));
-  f.hi = Vec3f(read3("hi"));
-  f.background = Vec3f(read3("background"));
+  f.lo = read3("lo");
+  f.hi = read3("hi");
+  f.background = read3("background");
   for (int a = 0; a < 3; ++a) {
     if (!(f.hi[a] > f.lo[a])) top.fail("hi", "must exceed lo on every axis");
     if (!(f.background[a] >= 0.0f)) top.fail("background", "must be >= 0");
   }
-  f.density_scale = float(top.number("density_scale"));
-  f.step_voxels = float(top.number("step_voxels"));
-  f.min_transmittance = float(top.number("min_transmittance", 1e-3));
-  const double occupancy_sigma = top.number("occupancy_sigma", 0.0);
+  f.density_scale = top.float_number("density_scale");
+  f.step_voxels = top.float_number("step_voxels");
+  f.min_transmittance = top.float_number("min_transmittance", 1e-3f);
+  const float occupancy_sigma = top.float_number("occupancy_sigma", 0.0f);
   if (!(f.density_scale > 0.0f)) top.fail("density_scale", "must be > 0");
   if (!(f.step_voxels > 0.0f)) top.fail("step_voxels", "must be > 0");
   if (!(f.min_transmittance >= 0.0f && f.min_transmittance < 1.0f)) top.fail("min_transmittance", "must lie in [0, 1)");
   const std::filesystem::path raw = json_path.parent_path() / top.string("values");
-  const std::string bytes = detail::read_file_text(raw);
+  std::string bytes;
+  try {
+    bytes = detail::read_file_text(raw);
+  } catch (const Error& e) {  // say which file named it
+    throw Error(raw, e.reason() + " (the \"values\" of " + json_path.string() + ")");
+  }
   const std::size_t want = f.vertex_count() * 4 * sizeof(float);
   if (bytes.size() != want)
     throw Error(raw, "holds " + std::to_string(bytes.size()) + " bytes; res " + std::to_string(f.res.x) + " x " +
-                         std::to_string(f.res.y) + " x " + std::to_string(f.res.z) + " needs " + std::to_string(want));
+                         std::to_string(f.res.y) + " x " + std::to_string(f.res.z) + " in " + json_path.string() +
+                         " needs " + std::to_string(want));
   f.values.resize(f.vertex_count() * 4);
   std::memcpy(f.values.data(), bytes.data(), want);
   for (std::size_t i = 0; i < f.values.size(); ++i)
     if (!std::isfinite(f.values[i]))
       throw Error(raw, "value " + std::to_string(i) + " is not finite");
-  f.update_occupancy(float(occupancy_sigma));
+  f.update_occupancy(occupancy_sigma);
   return f;
 }
 
