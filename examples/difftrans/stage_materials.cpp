@@ -13,6 +13,8 @@
 #include "views.hpp"
 
 #include <chrono>
+#include <exception>
+#include <string>
 #include <sys/resource.h>
 
 #include "difftrans/io/material.hpp"
@@ -155,16 +157,22 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
   j["test"] = compare_with_truth(renders, nullptr, out / "stage2_test");
   j["test_split"] = scene.test.frames.empty() ? "train (no test split)" : "test";
 
-  // against the ground truth
-  if (!scene.gt.material.empty() && fs::exists(scene.gt.material)) {
-    const io::Material gt = io::read_material(scene.gt.material);
-    j["ior_true"] = gt.ior;
-    j["ior_error"] = metrics::ior_error(s.ior, gt.ior);
-  }
-  if (!scene.gt.mesh.empty() && fs::exists(scene.gt.mesh)) {
-    const auto g = metrics::evaluate_geometry(to_io_mesh(s.mesh.positions, s.mesh.triangles), io::read_mesh(scene.gt.mesh));
-    j["chamfer"] = g.chamfer;
-    j["f1"] = g.f1;
+  // against the ground truth: a report; a comparison that fails warns, the fit is kept
+  try {
+    if (!scene.gt.material.empty() && fs::exists(scene.gt.material)) {
+      const io::Material gt = io::read_material(scene.gt.material);
+      j["ior_true"] = gt.ior;
+      j["ior_error"] = metrics::ior_error(s.ior, gt.ior);
+    }
+    if (!scene.gt.mesh.empty() && fs::exists(scene.gt.mesh)) {
+      const auto g =
+          metrics::evaluate_geometry(to_io_mesh(s.mesh.positions, s.mesh.triangles), io::read_mesh(scene.gt.mesh));
+      j["chamfer"] = g.chamfer;
+      j["f1"] = g.f1;
+    }
+  } catch (const std::exception& e) {
+    warn(std::string("materials: no comparison with the ground truth: ") + e.what());
+    j["ground_truth_error"] = e.what();
   }
   progress("materials: IoR " + fixed(s.ior, 4) +
            (j.contains("ior_error") ? " (error " + fixed(j["ior_error"].get<double>(), 4) + ")" : std::string()) +
