@@ -129,6 +129,8 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
   }
   const double fit_seconds = std::chrono::duration<double>(clock::now() - t0).count();
   j["fit_seconds"] = fit_seconds;
+  j["ior_last_iterate"] = s.ior;
+  s.ior = stage.averaged_ior();  // the mean over the last iterations (Stage2Config::average_fraction)
   j["ior"] = s.ior;
   const Vec3f ms = stage.mean_sigma();
   j["mean_sigma"] = {ms.x, ms.y, ms.z};
