@@ -13,6 +13,7 @@
 #include "views.hpp"
 
 #include <chrono>
+#include <cmath>
 #include <exception>
 #include <string>
 #include <sys/resource.h>
@@ -134,6 +135,8 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
   j["ior"] = s.ior;
   const Vec3f ms = stage.mean_sigma();
   j["mean_sigma"] = {ms.x, ms.y, ms.z};
+  const Vec3f s0 = stage.searched_sigma();
+  if (std::isfinite(s0.x)) j["sigma_start"] = {s0.x, s0.y, s0.z};  // Stage2Config::sigma_search's choice
 
   // outputs: material, mesh, loss curve
   io::Material mat;

@@ -22,6 +22,7 @@
 #include <string>
 #include <type_traits>
 #include <utility>
+#include <vector>
 
 #include "difftrans/ad/glm.hpp"
 #include "difftrans/io/json.hpp"
@@ -104,6 +105,16 @@ void read_fields(const io::Json& j, Config& config, const std::string& where) {
         value = Vec3f(v[0].get<float>(), v[1].get<float>(), v[2].get<float>());
       } else if constexpr (std::is_same_v<T, bool> || std::is_same_v<T, std::string>) {
         value = v.get<T>();
+      } else if constexpr (std::is_same_v<T, std::vector<float>>) {
+        if (!v.is_array()) throw std::runtime_error(at + ": expected a list of numbers");
+        std::vector<float> list;
+        for (const io::Json& x : v) {
+          if (!x.is_number() || !(x.get<double>() >= f.min && x.get<double>() <= f.max))
+            throw std::runtime_error(at + ": " + io::json_excerpt(x) + " is not a number in [" +
+                                     io::Json(f.min).dump() + ", " + io::Json(f.max).dump() + "]");
+          list.push_back(x.get<float>());
+        }
+        value = std::move(list);
       } else {
         if (!v.is_number()) throw std::runtime_error(at + ": expected a number");
         const double x = v.get<double>();
@@ -132,6 +143,10 @@ std::string describe_fields(const Config& config, const std::string& prefix = ""
       out << prefix << f.key << " = (" << value.x << ", " << value.y << ", " << value.z << ")\n";
     } else if constexpr (std::is_same_v<T, bool>) {
       out << prefix << f.key << " = " << (value ? "true" : "false") << "\n";
+    } else if constexpr (std::is_same_v<T, std::vector<float>>) {
+      out << prefix << f.key << " = [";
+      for (std::size_t i = 0; i < value.size(); ++i) out << (i ? ", " : "") << value[i];
+      out << "]\n";
     } else {
       out << prefix << f.key << " = " << value << "\n";
     }

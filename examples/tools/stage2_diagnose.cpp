@@ -123,6 +123,26 @@ io::Image blur_equirect(const io::Image& in, double sigma) {
   return out;
 }
 
+// A scene's material (IoR and absorption), kept to be put back.
+struct MaterialState {
+  float ior;
+  scene::AbsorptionKind kind;
+  std::vector<float> raw;
+  Vec3i res;
+  Vec3f lo, hi;
+  explicit MaterialState(const HostScene& s)
+      : ior(s.ior), kind(s.absorption_kind), raw(s.absorption_raw), res(s.absorption_res), lo(s.absorption_lo),
+        hi(s.absorption_hi) {}
+  void restore(HostScene& s) const {
+    s.ior = ior;
+    s.absorption_kind = kind;
+    s.absorption_raw = raw;
+    s.absorption_res = res;
+    s.absorption_lo = lo;
+    s.absorption_hi = hi;
+  }
+};
+
 // The scene, the mesh with its material and environment, and a Stage2 that
 // draws the batches and evaluates the per-ray loss exactly as the fit does.
 class Setup {
@@ -152,18 +172,9 @@ class Setup {
     config_.colour_loss = o.colour_loss;
     config_.pixel_samples = 1;  // the diagnostics look at rays one by one, each against its pixel
     // Stage2 starts the material afresh; the diagnostics keep the given one
-    const float ior = s_->ior;
-    const scene::AbsorptionKind kind = s_->absorption_kind;
-    const std::vector<float> raw = s_->absorption_raw;
-    const Vec3i res = s_->absorption_res;
-    const Vec3f lo = s_->absorption_lo, hi = s_->absorption_hi;
+    const MaterialState given(*s_);
     stage_ = std::make_unique<pipeline::Stage2>(*s_, training_.views, training_.mask_views, config_);
-    s_->ior = ior;
-    s_->absorption_kind = kind;
-    s_->absorption_raw = raw;
-    s_->absorption_res = res;
-    s_->absorption_lo = lo;
-    s_->absorption_hi = hi;
+    given.restore(*s_);
     for (bool& d : s_->differentiate) d = false;
     s_->differentiate[render::param_positions] = s_->differentiate[render::param_normals] = true;
   }
@@ -259,6 +270,22 @@ std::vector<RayEval> trace_rays(const HostScene& s, const std::vector<BatchRay>&
     }
   });
   return out;
+}
+
+// The loss of stage 2 averaged over the first `count` of fixed batches, the
+// rays traced in double through `scene`.
+double mean_batch_loss(const HostScene& scene, const std::vector<std::vector<BatchRay>>& rays,
+                       const std::vector<std::vector<Vec3f>>& targets, int count, const pipeline::Stage2& stage,
+                       const TraceSettings& settings) {
+  double sum = 0.0;
+  for (int b = 0; b < count; ++b) {
+    const auto& r = rays[std::size_t(b)];
+    const float inv_n = 1.0f / float(r.size());
+    const std::vector<RayEval> e = trace_rays(scene, r, settings);
+    for (std::size_t i = 0; i < r.size(); ++i)
+      sum += stage.ray_loss(Vec3f(e[i].radiance), targets[std::size_t(b)][i], inv_n).value;
+  }
+  return sum / double(std::max(1, count));
 }
 
 // Per-ray loss callback of ray_batch_gradient (ray index, radiance, adjoint out) -> loss.
@@ -755,15 +782,7 @@ io::Json home(Setup& setup, const HomeOptions& o) {
     if (split) bj["brightness_tertiles"] = {t1, t2};
     // the deterministic loss along x + tΔ over loss_batches fixed batches, and at the true mesh
     const auto mean_loss = [&](const HostScene& scene) {
-      double sum = 0.0;
-      for (int b = 0; b < o.loss_batches; ++b) {
-        const auto& r = rays[std::size_t(b)];
-        const float inv_n = 1.0f / float(r.size());
-        const std::vector<RayEval> e = trace_rays(scene, r, setup.trace());
-        for (std::size_t i = 0; i < r.size(); ++i)
-          sum += stage.ray_loss(Vec3f(e[i].radiance), targets[std::size_t(b)][i], inv_n).value;
-      }
-      return sum / double(std::max(1, o.loss_batches));
+      return mean_batch_loss(scene, rays, targets, o.loss_batches, stage, setup.trace());
     };
     io::Json line = io::Json::array();
     double best_t = 0.0, best_loss = 1e300;
@@ -807,34 +826,14 @@ struct IorOptions {
 io::Json ior_scan(Setup& setup, const IorOptions& o) {
   HostScene& s = setup.scene();
   const pipeline::Stage2& stage = setup.stage();
+  const MaterialState material(s);
   const float ior0 = s.ior;
-  const scene::AbsorptionKind kind0 = s.absorption_kind;
-  const std::vector<float> raw0 = s.absorption_raw;
-  const Vec3i res0 = s.absorption_res;
-  const Vec3f lo0 = s.absorption_lo, hi0 = s.absorption_hi;
-  const auto restore_material = [&] {
-    s.ior = ior0;
-    s.absorption_kind = kind0;
-    s.absorption_raw = raw0;
-    s.absorption_res = res0;
-    s.absorption_lo = lo0;
-    s.absorption_hi = hi0;
-  };
+  const auto restore_material = [&] { material.restore(s); };
   const int nb = std::max(o.loss_batches, o.gradient_batches);
   std::vector<std::vector<BatchRay>> rays(static_cast<std::size_t>(nb));
   std::vector<std::vector<Vec3f>> targets(static_cast<std::size_t>(nb));
   for (int b = 0; b < nb; ++b) setup.batch(b, rays[std::size_t(b)], targets[std::size_t(b)]);
-  const auto mean_loss = [&] {
-    double sum = 0.0;
-    for (int b = 0; b < o.loss_batches; ++b) {
-      const auto& r = rays[std::size_t(b)];
-      const float inv_n = 1.0f / float(r.size());
-      const std::vector<RayEval> e = trace_rays(s, r, setup.trace());
-      for (std::size_t i = 0; i < r.size(); ++i)
-        sum += stage.ray_loss(Vec3f(e[i].radiance), targets[std::size_t(b)][i], inv_n).value;
-    }
-    return sum / double(std::max(1, o.loss_batches));
-  };
+  const auto mean_loss = [&] { return mean_batch_loss(s, rays, targets, o.loss_batches, stage, setup.trace()); };
   io::Json out;
   // the gradient at the material's IoR, batch by batch, each ray's
   // derivative clipped at each of clip_ior (per ray, before the 1/n of the mean; 0: not clipped)
