@@ -39,6 +39,10 @@ void add_config_options(CLI::App* cmd, Config& config, const std::string& help_p
                help)
             ->default_str(pipeline::detail::enum_name(value))
             ->check(CLI::IsMember(names));
+      } else if constexpr (std::is_same_v<T, std::vector<float>>) {
+        // a comma-separated list, each number in the field's range
+        CLI::Option* o = cmd->add_option(f.flag, value, help)->delimiter(',')->capture_default_str();
+        if (std::isfinite(f.min) && std::isfinite(f.max)) o->check(CLI::Range(float(f.min), float(f.max)));
       } else {
         CLI::Option* o = cmd->add_option(f.flag, value, help)->capture_default_str();
         if constexpr (std::is_arithmetic_v<T>)

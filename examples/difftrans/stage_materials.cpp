@@ -21,12 +21,17 @@
 #include "difftrans/io/material.hpp"
 #include "difftrans/io/mesh_file.hpp"
 #include "difftrans/io/radiance_field.hpp"
+#include "difftrans/metrics/absorption.hpp"
 #include "difftrans/metrics/chamfer.hpp"
 #include "difftrans/metrics/ior.hpp"
 #include "config_options.hpp"
 #include "pipeline/materials.hpp"
 
 namespace difftrans::cli {
+
+// Lattice points per axis over the true mesh's box for the absorption error
+// (docs/metrics.md): about 48³ · (the object's share of its box) points.
+constexpr int absorption_error_lattice = 48;
 
 void add_materials_options(CLI::App* cmd, pipeline::Stage2Config& config) {
   add_config_options(cmd, config, "Materials: ");
@@ -136,7 +141,18 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
   const Vec3f ms = stage.mean_sigma();
   j["mean_sigma"] = {ms.x, ms.y, ms.z};
   const Vec3f s0 = stage.searched_sigma();
-  if (std::isfinite(s0.x)) j["sigma_start"] = {s0.x, s0.y, s0.z};  // Stage2Config::sigma_search's choice
+  if (std::isfinite(s0.x)) {  // Stage2Config::sigma_search's choice and its evidence
+    j["sigma_start"] = {s0.x, s0.y, s0.z};
+    const pipeline::Stage2::SigmaSearchEvidence& ev = stage.sigma_search_evidence();
+    io::Json rendered = io::Json::array();
+    for (const auto& r : ev.rendered) rendered.push_back({r[0], r[1], r[2]});
+    j["sigma_search"] = {{"sigma", ev.sigma},
+                         {"rendered_sum", rendered},
+                         {"photographed_sum", {ev.photographed[0], ev.photographed[1], ev.photographed[2]}}};
+    progress("materials: starting absorption " + fixed(s0.x, 3) + ", " + fixed(s0.y, 3) + ", " + fixed(s0.z, 3) +
+             " per unit length (the rendered light matched to the photographs' over " +
+             std::to_string(ev.sigma.size()) + " grey values)");
+  }
 
   // outputs: material, mesh, loss curve
   io::Material mat;
@@ -170,10 +186,26 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
       j["ior_error"] = metrics::ior_error(s.ior, gt.ior);
     }
     if (!scene.gt.mesh.empty() && fs::exists(scene.gt.mesh)) {
-      const auto g =
-          metrics::evaluate_geometry(to_io_mesh(s.mesh.positions, s.mesh.triangles), io::read_mesh(scene.gt.mesh));
+      const io::Mesh gt_mesh = io::read_mesh(scene.gt.mesh);
+      const auto g = metrics::evaluate_geometry(to_io_mesh(s.mesh.positions, s.mesh.triangles), gt_mesh);
       j["chamfer"] = g.chamfer;
       j["f1"] = g.f1;
+      if (!scene.gt.material.empty() && fs::exists(scene.gt.material)) {
+        // the fitted grid against the true absorption inside the true object
+        const io::Material gt = io::read_material(scene.gt.material);
+        const std::vector<Vec3f> inside =
+            metrics::interior_points(gt_mesh.positions, gt_mesh.triangles, absorption_error_lattice);
+        const auto e = metrics::absorption_error(
+            inside, [&](const Vec3f& p) { return metrics::grid_sigma_at(mat.grid, p); },
+            [&](const Vec3f& p) {
+              return gt.absorption == io::AbsorptionType::grid          ? metrics::grid_sigma_at(gt.grid, p)
+                     : gt.absorption == io::AbsorptionType::homogeneous ? gt.sigma
+                                                                        : Vec3f(0.0f);
+            });
+        j["absorption_error"] = {{"relative", e.relative},        {"mean_relative", e.mean_relative},
+                                 {"mean_true", e.mean_true},      {"mean_fit", e.mean_fit},
+                                 {"mean_absolute", e.mean_abs},   {"points", e.points}};
+      }
     }
   } catch (const std::exception& e) {
     warn(std::string("materials: no comparison with the ground truth: ") + e.what());
@@ -181,6 +213,9 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
   }
   progress("materials: IoR " + fixed(s.ior, 4) +
            (j.contains("ior_error") ? " (error " + fixed(j["ior_error"].get<double>(), 4) + ")" : std::string()) +
+           (j.contains("absorption_error")
+                ? ", absorption error " + fixed(100.0 * j["absorption_error"]["mean_relative"].get<double>(), 1) + " %"
+                : std::string()) +
            ", test PSNR " + fixed(j["test"].value("psnr", 0.0), 2) + " dB, fitted in " + duration_text(fit_seconds));
   j["peak_memory_mb"] = peak_memory_mb();
   j["seconds"] = std::chrono::duration<double>(clock::now() - t_start).count();

@@ -150,14 +150,15 @@ TEST_CASE("stage 2 recovers IoR and absorption on a glass sphere (geometry known
                  << ", " << sig.y << ", " << sig.z << " (true 0.5, 1.5, 3.0; start " << start.x << ", " << start.y
                  << ", " << start.z << "); colour loss " << first << " -> " << last);
   if (searched) {
-    // the search's grid holds 0.5, 1.5 and 3.0 themselves; a neighbour will do
+    // the search matches the rendered light to the photographs' (measured:
+    // 0.49, 1.51, 3.19); 35 % off is a wrong rule, not noise
     for (int c = 0; c < 3; ++c) CHECK(std::abs(start[c] - sigma_true[c]) <= 0.35f * sigma_true[c]);
     CHECK(last < 1e-3);
   } else {
     CHECK(std::isnan(start.x));
     CHECK(last < 0.1 * first);
   }
-  // measured: IoR 1.4498 from sigma_init, 1.4533 after the search; before
+  // measured: IoR 1.4491 from sigma_init, 1.4523 after the search; before
   // each ray's IoR derivative was clipped, 1.43 and σ about 10 % low
   CHECK(std::abs(s.ior - 1.45f) < 0.01f);
   CHECK(std::abs(st.averaged_ior() - 1.45f) < 0.01f);

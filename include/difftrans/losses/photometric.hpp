@@ -32,6 +32,21 @@ struct RayColourLoss {
   Vec3f dcolour{0.0f}, dtone{0.0f};  // d/dĉ
 };
 
+// The residual a colour loss squares, per channel: f(ĉ) − f(c) with f the
+// identity (l2; relative_l2 too, whose denominator only ray_colour_loss
+// applies) or log(1 + max(0, x)) (log_l2), and its derivative f'(ĉ). Stage
+// 2's pixel pairs multiply two samples' residuals instead of squaring one.
+struct ColourResidual {
+  float value = 0.0f, derivative = 0.0f;
+};
+
+inline ColourResidual colour_residual(float rendered, float target, ColourLoss kind) {
+  if (kind != ColourLoss::log_l2) return {rendered - target, 1.0f};
+  const double r = rendered > 0.0f ? double(rendered) : 0.0;
+  const double t = target > 0.0f ? double(target) : 0.0;
+  return {float(std::log1p(r) - std::log1p(t)), rendered > 0.0f ? float(1.0 / (1.0 + r)) : 0.0f};
+}
+
 inline RayColourLoss ray_colour_loss(const Vec3f& rendered, const Vec3f& target, ColourLoss kind, bool with_tone) {
   RayColourLoss out;
   for (int ch = 0; ch < 3; ++ch) {

@@ -2,6 +2,7 @@
 // (docs/metrics.md). Host code; link difftrans::io.
 #pragma once
 
+#include "difftrans/metrics/absorption.hpp"
 #include "difftrans/metrics/chamfer.hpp"
 #include "difftrans/metrics/image.hpp"
 #include "difftrans/metrics/ior.hpp"

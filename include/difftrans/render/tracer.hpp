@@ -12,6 +12,7 @@
 #pragma once
 
 #include <cstdint>
+#include <cstring>
 
 #include "difftrans/ad/glm.hpp"
 #include "difftrans/optics/interface.hpp"
@@ -35,6 +36,17 @@ struct SceneView {
 struct TraceSettings {
   int max_depth = 8;                // surface interactions per path; deeper branches are dropped
   float prune_throughput = 0.0f;    // drop branches whose largest RGB weight falls below this (0: full tree)
+  // Interactions that spawn both children (the Fresnel tree). Beyond, up to
+  // max_depth, a branch goes on as one path: it reflects with probability R
+  // and refracts with probability T, its weight divided by that probability
+  // (held constant: the value and its derivative stay unbiased). Deep light
+  // is then sampled instead of dropped, at one segment per interaction.
+  // ≥ max_depth: the whole tree (the default).
+  int tree_depth = max_trace_depth;
+  // Pruning by Russian roulette: a branch below prune_throughput goes on
+  // with probability (its largest RGB weight) / prune_throughput, its weight
+  // divided by that probability, instead of being dropped (unbiased).
+  bool roulette = false;
   scene::AbsorptionIntegration integration;  // grid absorption: exact (samples = 0) or K samples
   scene::NormalMode normal_mode = scene::NormalMode::automatic;
   bool smooth_normals = true;       // shade with interpolated vertex normals (the paper); false: flat facets
@@ -66,6 +78,7 @@ template <class S>
 struct Branch {
   Vec3<S> origin, direction, weight;
   int depth;
+  std::uint32_t path;  // 1, then one bit per interaction: 0 reflected, 1 refracted
 };
 
 // Origin of a ray spawned at p towards `side` (±1 along the unit geometric
@@ -88,6 +101,42 @@ DT_HOST_DEVICE ad::scalar_t<S> max_component(const Vec3<S>& v) {
 template <class S>
 DT_HOST_DEVICE double mean_component(const Vec3<S>& v) {
   return (double(value_of(v.x)) + double(value_of(v.y)) + double(value_of(v.z))) / 3.0;
+}
+
+// A uniform number in [0, 1) for a choice on a branch: a hash of the camera
+// ray (`ray`, from its origin and direction) and of the branch's place in the
+// tree (`path`: 1, then one bit per interaction, 0 reflected, 1 refracted),
+// salted by what is chosen. It depends on nothing the parameters move, so a
+// ray's choices repeat run to run, on any thread, and under the small
+// changes of a finite-difference check; no generator is carried along.
+DT_HOST_DEVICE inline std::uint32_t hash_mix(std::uint32_t h, std::uint32_t x) {
+  h ^= x + 0x9E3779B9u + (h << 6) + (h >> 2);
+  h ^= h >> 16;
+  h *= 0x7FEB352Du;
+  h ^= h >> 15;
+  h *= 0x846CA68Bu;
+  h ^= h >> 16;
+  return h;
+}
+
+DT_HOST_DEVICE inline std::uint32_t float_bits(float x) {
+  std::uint32_t b;
+  memcpy(&b, &x, sizeof b);
+  return b;
+}
+
+DT_HOST_DEVICE inline std::uint32_t camera_ray_hash(const Vec3f& o, const Vec3f& d) {
+  std::uint32_t h = 0x2545F491u;
+  h = hash_mix(h, float_bits(o.x));
+  h = hash_mix(h, float_bits(o.y));
+  h = hash_mix(h, float_bits(o.z));
+  h = hash_mix(h, float_bits(d.x));
+  h = hash_mix(h, float_bits(d.y));
+  return hash_mix(h, float_bits(d.z));
+}
+
+DT_HOST_DEVICE inline float branch_random(std::uint32_t ray, std::uint32_t path, std::uint32_t salt) {
+  return float(hash_mix(hash_mix(ray, path), salt) >> 8) * (1.0f / 16777216.0f);
 }
 
 }  // namespace detail
@@ -144,7 +193,9 @@ DT_HOST_DEVICE Vec3<S> trace(const SceneView& scene, const Accel& accel, Reader&
   Vec3<S> radiance(S(0), S(0), S(0));
   detail::Branch<S> stack[max_trace_depth + 2];
   int top = 0;
-  stack[top++] = detail::Branch<S>{lift<S>(origin), lift<S>(direction), Vec3<S>(S(1), S(1), S(1)), 0};
+  stack[top++] = detail::Branch<S>{lift<S>(origin), lift<S>(direction), Vec3<S>(S(1), S(1), S(1)), 0, 1u};
+  const std::uint32_t ray_hash =
+      settings.tree_depth < max_depth || settings.roulette ? detail::camera_ray_hash(origin, direction) : 0u;
 
   while (top > 0) {
     const detail::Branch<S> b = stack[--top];
@@ -186,26 +237,36 @@ DT_HOST_DEVICE Vec3<S> trace(const SceneView& scene, const Accel& accel, Reader&
     const optics::InterfaceEvent<S> ev = optics::interface_event(wi, n, eta);
     const float incoming_side = cos_geo > T(0) ? 1.0f : -1.0f;
 
-    // the two children; a zero Fresnel weight (R at eta = 1) spawns nothing
-    if (value_of(ev.R) > T(0)) {
-      const Vec3<S> w = weight * ev.R;
-      if (detail::max_component(w) >= T(settings.prune_throughput)) {
-        stack[top++] = detail::Branch<S>{detail::offset_origin(p, ng, incoming_side), ev.wr, w, b.depth + 1};
-      } else {
-        ++local.pruned;
-        local.cut_weight += detail::mean_component(w);
-      }
+    // the children; a zero Fresnel weight (R at eta = 1) spawns nothing
+    const bool refracts = !ev.tir && value_of(ev.T) > T(0);
+    const bool reflects = value_of(ev.R) > T(0);
+    if (ev.tir) ++local.tir;
+    bool take_r = reflects, take_t = refracts;
+    T choice = T(1);  // the probability of the child taken, beyond the tree
+    if (b.depth >= settings.tree_depth && reflects && refracts) {
+      const T r = value_of(ev.R), tt = value_of(ev.T);
+      const bool r_first = T(detail::branch_random(ray_hash, b.path, 0u)) * (r + tt) < r;
+      take_r = r_first;
+      take_t = !r_first;
+      choice = (r_first ? r : tt) / (r + tt);
     }
-    if (ev.tir) {
-      ++local.tir;
-    } else if (value_of(ev.T) > T(0)) {
-      const Vec3<S> w = weight * ev.T;
-      if (detail::max_component(w) >= T(settings.prune_throughput)) {
-        stack[top++] = detail::Branch<S>{detail::offset_origin(p, ng, -incoming_side), ev.wt, w, b.depth + 1};
-      } else {
-        ++local.pruned;
-        local.cut_weight += detail::mean_component(w);
+    const Vec3<S> chosen = choice < T(1) ? weight * S(T(1) / choice) : weight;
+    for (int child = 0; child < 2; ++child) {  // the reflection is pushed first, the refraction traced first
+      if (!(child == 0 ? take_r : take_t)) continue;
+      Vec3<S> w = chosen * (child == 0 ? ev.R : ev.T);
+      const T level = detail::max_component(w);
+      if (!(level >= T(settings.prune_throughput))) {
+        const T survive = level / T(settings.prune_throughput);
+        if (!settings.roulette || !(T(detail::branch_random(ray_hash, b.path, 1u + std::uint32_t(child))) < survive)) {
+          ++local.pruned;
+          local.cut_weight += detail::mean_component(w);
+          continue;
+        }
+        w = w * S(T(1) / survive);
       }
+      const float side = child == 0 ? incoming_side : -incoming_side;
+      stack[top++] = detail::Branch<S>{detail::offset_origin(p, ng, side), child == 0 ? ev.wr : ev.wt, w, b.depth + 1,
+                                       (b.path << 1) | std::uint32_t(child)};
     }
   }
   if (stats) stats->add(local);
