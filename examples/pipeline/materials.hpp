@@ -167,18 +167,22 @@ struct Stage2Config {
   }
   int sigma_search_batches = 4;
   float sigma_search_glint = 20.0f;  // the search's glint_factor (see glint_factor)
-  // Training tracer: the Fresnel tree for 4 interactions, one path drawn by
+  // Training tracer: the Fresnel tree for 8 interactions, one path drawn by
   // the Fresnel weights beyond it to depth 16, pruning at 0.01 by Russian
   // roulette, K = 4 absorption samples. A tree cut at depth 4 (the earlier
   // setting) lost 22 % of the light of the clear horse (rendered sum over
   // the object's pixels 2154 against 2788 at depth 16, σ 0); the fit then
   // lowered the absorption to make up for it (the search started at 2.45,
-  // 0.0, 2.88 for the true 4, 0.4, 4). This one sums to 2765 (noise) at
-  // 1.4× the time of the cut tree and 0.2× that of the full one.
+  // 0.0, 2.88 for the true 4, 0.4, 4). A tree of 4 and the drawn path sums
+  // to 2765 (noise) at 1.4× the time of the cut tree and 0.2× that of the
+  // full one, but a drawn branch carries R'/R in its IoR derivative: on
+  // spot-clear (stage-1 mesh) the IoR error was 0.026 with a tree of 4,
+  // 0.0115 with 8 (0.0095 with the cut tree); on horse-green's true mesh
+  // 0.0007 and 0.0031, absorption error 24.4 % and 22.9 %.
   TraceSettings trace = [] {
     TraceSettings t;
     t.max_depth = 16;
-    t.tree_depth = 4;
+    t.tree_depth = 8;
     t.roulette = true;
     t.prune_throughput = 0.01f;
     t.integration.samples = 4;

@@ -158,7 +158,7 @@ TEST_CASE("stage 2 recovers IoR and absorption on a glass sphere (geometry known
     CHECK(std::isnan(start.x));
     CHECK(last < 0.1 * first);
   }
-  // measured: IoR 1.4491 from sigma_init, 1.4523 after the search; before
+  // measured: IoR 1.4496 from sigma_init, 1.4522 after the search; before
   // each ray's IoR derivative was clipped, 1.43 and σ about 10 % low
   CHECK(std::abs(s.ior - 1.45f) < 0.01f);
   CHECK(std::abs(st.averaged_ior() - 1.45f) < 0.01f);
