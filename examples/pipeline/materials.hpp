@@ -419,6 +419,13 @@ class Stage2 {
     return factor * level[level.size() / 2];
   }
   static float brightest(const Vec3f& c) { return std::max(c.x, std::max(c.y, c.z)); }
+  // Whether a pixel's photograph or one of its k samples L[0 .. k) is above
+  // the glint level (or not a number).
+  static bool glinting(const Vec3f& target, const Vec3f* L, int k, float level) {
+    bool out = !(brightest(target) <= level);
+    for (int q = 0; q < k; ++q) out = out || !(brightest(L[q]) <= level);
+    return out;
+  }
 
   // One training ray's weighted colour + tone loss (inv_n: 1 / the batch's
   // pixel count) and its adjoint d value / d radiance. An outlier (colour loss
@@ -449,9 +456,7 @@ class Stage2 {
   // mean. adjoint[q] = d value / d L[q]. The outlier test looks at the mean.
   RayLoss pixel_loss(const Vec3f* L, int k, const Vec3f& target, float inv_n, Vec3f* adjoint,
                      float glint = std::numeric_limits<float>::infinity()) const {
-    bool glinting = !(brightest(target) <= glint);
-    for (int q = 0; q < k; ++q) glinting = glinting || !(brightest(L[q]) <= glint);
-    if (glinting) {
+    if (glinting(target, L, k, glint)) {
       for (int q = 0; q < k; ++q) adjoint[q] = Vec3f(0.0f);
       RayLoss skipped;
       skipped.skipped = true;
@@ -776,9 +781,7 @@ class Stage2 {
       // the same pixels at every σ: a pixel with a non-finite sample at any σ is left out of all
       for (std::size_t p = 0; p < target.size(); ++p) {
         if (!finite[p] || !std::isfinite(target[p].x + target[p].y + target[p].z)) continue;
-        bool glinting = !(brightest(target[p]) <= glint);
-        for (int j = 0; j < k; ++j) glinting = glinting || !(brightest(L[0][p * std::size_t(k) + std::size_t(j)]) <= glint);
-        if (glinting) continue;
+        if (glinting(target[p], L[0].data() + p * std::size_t(k), k, glint)) continue;
         for (int c = 0; c < 3; ++c) photographed[std::size_t(c)] += double(target[p][c]);
         for (std::size_t q = 0; q < grid.size(); ++q)
           for (int j = 0; j < k; ++j)

@@ -12,9 +12,9 @@
 #pragma once
 
 #include <cstdint>
-#include <cstring>
 
 #include "difftrans/ad/glm.hpp"
+#include "difftrans/core/hash.hpp"
 #include "difftrans/optics/interface.hpp"
 #include "difftrans/scene/absorption.hpp"
 #include "difftrans/scene/envmap.hpp"
@@ -109,34 +109,14 @@ DT_HOST_DEVICE double mean_component(const Vec3<S>& v) {
 // salted by what is chosen. It depends on nothing the parameters move, so a
 // ray's choices repeat run to run, on any thread, and under the small
 // changes of a finite-difference check; no generator is carried along.
-DT_HOST_DEVICE inline std::uint32_t hash_mix(std::uint32_t h, std::uint32_t x) {
-  h ^= x + 0x9E3779B9u + (h << 6) + (h >> 2);
-  h ^= h >> 16;
-  h *= 0x7FEB352Du;
-  h ^= h >> 15;
-  h *= 0x846CA68Bu;
-  h ^= h >> 16;
-  return h;
+DT_HOST_DEVICE inline std::uint64_t camera_ray_hash(const Vec3f& o, const Vec3f& d) {
+  const std::uint64_t h = splitmix64((std::uint64_t(float_bits(o.x)) << 32) | float_bits(o.y));
+  const std::uint64_t g = splitmix64(h ^ ((std::uint64_t(float_bits(o.z)) << 32) | float_bits(d.x)));
+  return splitmix64(g ^ ((std::uint64_t(float_bits(d.y)) << 32) | float_bits(d.z)));
 }
 
-DT_HOST_DEVICE inline std::uint32_t float_bits(float x) {
-  std::uint32_t b;
-  memcpy(&b, &x, sizeof b);
-  return b;
-}
-
-DT_HOST_DEVICE inline std::uint32_t camera_ray_hash(const Vec3f& o, const Vec3f& d) {
-  std::uint32_t h = 0x2545F491u;
-  h = hash_mix(h, float_bits(o.x));
-  h = hash_mix(h, float_bits(o.y));
-  h = hash_mix(h, float_bits(o.z));
-  h = hash_mix(h, float_bits(d.x));
-  h = hash_mix(h, float_bits(d.y));
-  return hash_mix(h, float_bits(d.z));
-}
-
-DT_HOST_DEVICE inline float branch_random(std::uint32_t ray, std::uint32_t path, std::uint32_t salt) {
-  return float(hash_mix(hash_mix(ray, path), salt) >> 8) * (1.0f / 16777216.0f);
+DT_HOST_DEVICE inline float branch_random(std::uint64_t ray, std::uint32_t path, std::uint32_t salt) {
+  return float(unit_from_bits(splitmix64(ray ^ ((std::uint64_t(path) << 8) | salt))));
 }
 
 }  // namespace detail
@@ -194,7 +174,7 @@ DT_HOST_DEVICE Vec3<S> trace(const SceneView& scene, const Accel& accel, Reader&
   detail::Branch<S> stack[max_trace_depth + 2];
   int top = 0;
   stack[top++] = detail::Branch<S>{lift<S>(origin), lift<S>(direction), Vec3<S>(S(1), S(1), S(1)), 0, 1u};
-  const std::uint32_t ray_hash =
+  const std::uint64_t ray_hash =
       settings.tree_depth < max_depth || settings.roulette ? detail::camera_ray_hash(origin, direction) : 0u;
 
   while (top > 0) {

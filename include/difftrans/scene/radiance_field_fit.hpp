@@ -13,6 +13,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "difftrans/core/hash.hpp"
 #include "difftrans/core/parallel.hpp"
 #include "difftrans/optim/adam.hpp"
 #include "difftrans/scene/radiance_field.hpp"
@@ -53,19 +54,6 @@ struct FieldFitReport {
   double last_mse = 0;  // the data term over the last iteration's batch (see FieldFitOptions::log_loss)
   double occupied_fraction = 1;
 };
-
-namespace detail {
-
-inline std::uint64_t splitmix64(std::uint64_t x) {
-  x += 0x9E3779B97F4A7C15ull;
-  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
-  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
-  return x ^ (x >> 31);
-}
-
-inline double unit_from_bits(std::uint64_t x) { return double(x >> 11) * (1.0 / 9007199254740992.0); }
-
-}  // namespace detail
 
 // Obs: anything with Vec3f members origin, direction and radiance.
 // progress(level, iteration, mse) is called every few dozen iterations.
@@ -124,16 +112,16 @@ RadianceField fit_radiance_field(const std::vector<Obs>& obs, const Vec3f& lo, c
       const float inv_batch = 1.0f / float(opt.batch);
       const bool log_loss = opt.log_loss;
       std::fill(sq_error.begin(), sq_error.end(), 0.0);
-      const std::uint64_t it_seed = detail::splitmix64(opt.seed * 0x100000001B3ull + std::uint64_t(global_it));
+      const std::uint64_t it_seed = splitmix64(opt.seed * 0x100000001B3ull + std::uint64_t(global_it));
       pool.parallel_for(opt.batch, 64, [&](std::int64_t b0, std::int64_t b1, int w) {
         float* grad = grads[std::size_t(w)].data();
         float* bg_grad = bg_grads[std::size_t(w)].data();
         auto& rec = scratch[std::size_t(w)];
         double se = 0;
         for (std::int64_t b = b0; b < b1; ++b) {
-          const std::uint64_t h = detail::splitmix64(it_seed + std::uint64_t(b));
+          const std::uint64_t h = splitmix64(it_seed + std::uint64_t(b));
           const Obs& o = obs[std::size_t(h % obs.size())];
-          const float offset = float(detail::unit_from_bits(detail::splitmix64(h)));
+          const float offset = float(unit_from_bits(splitmix64(h)));
           field_radiance_backward<float>(
               view, o.origin, o.direction, offset,
               [&](const Vec3f& C) {
