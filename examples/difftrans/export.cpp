@@ -240,11 +240,11 @@ ExportInput gather(const ExportOptions& o) {
   // environment: --env, else the one reconstruct recovered
   if (!o.env.empty()) {
     in.env = load_environment(o.env);
-  } else if (!o.recon.empty() && fs::is_regular_file(recon / "envmap.hdr", ec)) {
-    in.env = load_environment((recon / "envmap.hdr").string());
+  } else if (!o.recon.empty() && fs::is_regular_file(recovered_map(recon), ec)) {
+    in.env = load_environment(recovered_map(recon).string());
     if (fs::exists(recon / "radiance_field.json", ec))
       warn((recon / "radiance_field.json").string() + ": Mitsuba gets the near-field environment as its panorama "
-           "from the object's centre, envmap.hdr");
+           "from the object's centre, " + recovered_map(recon).filename().string());
   } else {
     throw io::Error(o.recon.empty() ? fs::path("--env") : recon / "envmap.hdr",
                     o.recon.empty() ? "mitsuba needs an environment: pass --env"
@@ -329,7 +329,7 @@ void add_export(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand("export", "Write a reconstruction (or a mesh + material) in standard formats");
   cmd->footer(
       "Reads RECON_DIR (an output folder of difftrans reconstruct): mesh_stage2.obj, else mesh_stage1.obj;\n"
-      "material_stage2.json (+ its absorption grid); envmap.hdr; the scene reconstruct.json records (cameras).\n"
+      "material_stage2.json (+ its absorption grid); envmap_stage2.hdr, else envmap.hdr; the scene reconstruct.json records (cameras).\n"
       "--mesh, --material/--ior/--absorption, --env and --scene replace those (or export a ground truth alone).\n"
       "Writes into the folder --out:\n"
       "  gltf     object.glb: glTF 2.0 binary, KHR_materials_transmission / _ior / _volume (attenuation = sigma)\n"
@@ -345,7 +345,7 @@ void add_export(CLI::App& app) {
   cmd->add_option("--out", o->out, "output folder")->required();
   cmd->add_option("--mesh", o->mesh, "mesh (.obj or .ply) instead of the reconstruction's");
   o->material.add(cmd);
-  cmd->add_option("--env", o->env, "mitsuba: environment (.hdr/.exr map or constant:R,G,B) instead of RECON_DIR/envmap.hdr");
+  cmd->add_option("--env", o->env, "mitsuba: environment (.hdr/.exr map or constant:R,G,B) instead of RECON_DIR/envmap_stage2.hdr or envmap.hdr");
   cmd->add_option("--scene", o->scene, "mitsuba: scene directory whose cameras become sensors (default: the recorded one)");
   cmd->add_option("--split", o->split, "mitsuba: which cameras of the scene")
       ->capture_default_str()

@@ -18,6 +18,7 @@
 #include <string>
 #include <sys/resource.h>
 
+#include "difftrans/io/hdr.hpp"
 #include "difftrans/io/material.hpp"
 #include "difftrans/io/mesh_file.hpp"
 #include "difftrans/io/radiance_field.hpp"
@@ -25,6 +26,7 @@
 #include "difftrans/metrics/chamfer.hpp"
 #include "difftrans/metrics/ior.hpp"
 #include "config_options.hpp"
+#include "pipeline/environment.hpp"
 #include "pipeline/materials.hpp"
 
 namespace difftrans::cli {
@@ -89,11 +91,18 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
            ", absorption grid " + std::to_string(cfg.absorption_res) + "^3" +
            (cfg.optimize_positions ? ", vertices after " + std::to_string(cfg.freeze_geometry) : std::string()));
   pipeline::Stage2 stage(s, views, mask_views, cfg);
+  // the directions the training views' background saw (Stage2Config::fit_unseen_sky)
+  if (s.environment_width > 0 && !s.near_field)
+    stage.set_seen_texels(pipeline::seen_texels(pipeline::background_observations(scene.train), s.environment_width,
+                                                s.environment_height));
   // checkpoints: the settings above, the seed and the inputs name the run
   const fs::path ckpt_path = out / "checkpoint_stage2.bin";
   // (not the iteration count: a finished or stopped fit can be continued for more iterations)
   io::Json settings = j["settings"];
-  for (const char* key : {"iterations", "test_spp_axis", "mesh"}) settings.erase(key);
+  // (nor what happens after the last iteration: the IoR's settling)
+  for (const char* key : {"iterations", "test_spp_axis", "mesh", "ior_settle_batches", "ior_settle_step",
+                          "ior_settle_rounds"})
+    settings.erase(key);
   const std::string run_name = settings.dump() + " seed " + std::to_string(cfg.seed) + " " + inputs;
   if (!run.restart && fs::exists(ckpt_path)) {
     if (stage.load(ckpt_path, run_name))
@@ -114,6 +123,10 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
       meter.update(st.iteration + 1, "colour " + fixed(st.color, 5) + " IoR " + fixed(st.ior, 4) + " mean sigma (" +
                                          fixed(st.mean_sigma.x, 3) + ", " + fixed(st.mean_sigma.y, 3) + ", " +
                                          fixed(st.mean_sigma.z, 3) + ")" +
+                                         (stage.sky_fitted() ? " sky x(" + fixed(st.sky_scale.x, 3) + ", " +
+                                                                   fixed(st.sky_scale.y, 3) + ", " +
+                                                                   fixed(st.sky_scale.z, 3) + ")"
+                                                             : std::string()) +
                                          (st.geometry_moving ? " mask " + fixed(st.mask, 5) : std::string()) + "  " +
                                          fixed(st.seconds, 3) + " s/it" +
                                          (st.skipped_rays ? "  skipped " + std::to_string(st.skipped_rays) : std::string()));
@@ -136,7 +149,29 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
   const double fit_seconds = std::chrono::duration<double>(clock::now() - t0).count();
   j["fit_seconds"] = fit_seconds;
   j["ior_last_iterate"] = s.ior;
-  s.ior = stage.averaged_ior();  // the mean over the last iterations (Stage2Config::average_fraction)
+  // the mean over the last iterations (Stage2Config::average_fraction), then
+  // the root of the mean IoR gradient near it (Stage2::settle_ior)
+  const pipeline::Stage2::IorSettle settle = stage.settle_ior();
+  j["ior_averaged"] = settle.start;
+  if (!settle.evaluations.empty()) {
+    io::Json ev = io::Json::array();
+    for (const auto& e : settle.evaluations) ev.push_back({{"ior", e.ior}, {"mean_gradient", e.mean_gradient},
+                                                           {"standard_error", e.standard_error}});
+    j["ior_settle"] = {{"settled", settle.settled},
+                       {"slope", settle.slope},
+                       {"slope_standard_error", settle.slope_standard_error},
+                       {"evaluations", ev}};
+    if (std::isfinite(settle.standard_error)) j["ior_settle"]["ior_standard_error"] = settle.standard_error;
+    progress("materials: IoR " + fixed(settle.start, 4) + " (the mean of the last iterations) " +
+             (settle.settled ? "settled at " + fixed(settle.ior, 4) + " ± " + fixed(settle.standard_error, 4) +
+                                   ", the zero of the IoR gradient's line over " +
+                                   std::to_string(cfg.ior_settle_batches) + " fixed batches"
+                             : std::string(std::isfinite(settle.standard_error)
+                                               ? "moved to the edge of the last IoRs tried: " + fixed(settle.ior, 4)
+                                               : "kept: the IoR gradient shows no significant slope")) +
+             " (" + std::to_string(settle.evaluations.size()) + " IoRs evaluated)");
+  }
+  s.ior = settle.ior;
   j["ior"] = s.ior;
   const Vec3f ms = stage.mean_sigma();
   j["mean_sigma"] = {ms.x, ms.y, ms.z};
@@ -166,6 +201,19 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
   mat.grid_file = "absorption_stage2.json";
   io::write_material(out / "material_stage2.json", mat);
   io::write_mesh(out / "mesh_stage2.obj", to_io_mesh(s.mesh.positions, s.mesh.triangles));
+  if (stage.sky_fitted()) {
+    // the map with its unseen sky scaled: what the fit saw, and what the test renders use
+    const Vec3f k = stage.unseen_sky_scale();
+    io::Image map(s.environment_width, s.environment_height);
+    map.rgb = s.environment;
+    io::write_hdr(out / "envmap_stage2.hdr", map);
+    j["unseen_sky"] = {{"scale", {k.x, k.y, k.z}},
+                       {"solid_angle_fraction", stage.unseen_solid_angle_fraction()},
+                       {"map", (out / "envmap_stage2.hdr").string()}};
+    progress("materials: the sky no background pixel saw (" + fixed(100.0 * stage.unseen_solid_angle_fraction(), 1) +
+             " % of the sphere) scaled by " + fixed(k.x, 3) + ", " + fixed(k.y, 3) + ", " + fixed(k.z, 3) +
+             " (envmap_stage2.hdr)");
+  }
   write_loss_svg(out / "stage2_loss.svg", {{"colour loss (L2, training rays)", color_curve}, {"IoR", ior_curve}});
 
   // test views: renders, metrics, contact sheet

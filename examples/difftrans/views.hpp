@@ -92,6 +92,15 @@ struct Environment {
   }
 };
 
+// The distant map a reconstruction folder holds: stage 2's (envmap_stage2.hdr,
+// its unseen sky scaled by the fitted factor) when it wrote one, else the
+// environment stage's envmap.hdr (which may be absent).
+inline fs::path recovered_map(const fs::path& dir) {
+  std::error_code ec;
+  const fs::path stage2 = dir / "envmap_stage2.hdr";
+  return fs::is_regular_file(stage2, ec) ? stage2 : dir / "envmap.hdr";
+}
+
 inline Environment load_environment(const std::string& spec) {
   Environment e;
   e.spec = spec;
@@ -103,10 +112,11 @@ inline Environment load_environment(const std::string& spec) {
   e.file = spec;
   std::error_code ec;
   if (fs::is_directory(e.file, ec)) {  // a reconstruction folder
-    const fs::path field = e.file / "radiance_field.json", map = e.file / "envmap.hdr";
+    const fs::path field = e.file / "radiance_field.json", map = recovered_map(e.file);
     if (fs::exists(field, ec)) e.file = field;
     else if (fs::exists(map, ec)) e.file = map;
-    else throw io::Error(spec, "holds neither radiance_field.json nor envmap.hdr (the environments reconstruct writes)");
+    else throw io::Error(spec, "holds none of radiance_field.json, envmap_stage2.hdr, envmap.hdr (the environments "
+                               "reconstruct writes)");
   }
   if (io::detail::lower_extension(e.file) == ".json") {
     e.field = std::make_shared<const scene::RadianceField>(io::read_radiance_field(e.file));

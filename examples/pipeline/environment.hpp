@@ -7,6 +7,7 @@
 // near field, scene/radiance_field_fit.hpp).
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <string>
@@ -153,6 +154,22 @@ io::Image environment_view_with(const io::Frame& f, const Radiance& radiance) {
         }
   });
   return out;
+}
+
+// Per texel of a width x height map, 1 where a bilinear lookup of some
+// observation's direction gives it weight: the directions the background
+// pixels saw. The others are the environment fit's prior (its harmonic
+// fill), which object rays may still see through the object.
+inline std::vector<std::uint8_t> seen_texels(const std::vector<scene::EnvObservation>& obs, int width, int height) {
+  std::vector<std::uint8_t> seen(std::size_t(std::max(width, 0)) * std::size_t(std::max(height, 0)), 0);
+  if (seen.empty()) return seen;
+  for (const scene::EnvObservation& ob : obs) {
+    const scene::Footprint<float> f = scene::bilinear_footprint(width, height, scene::direction_to_uv(ob.direction));
+    if (!f.valid) continue;
+    for (int k = 0; k < 4; ++k)
+      if (f.weight[k] > 0.0f) seen[std::size_t(f.texel[k])] = 1;
+  }
+  return seen;
 }
 
 // A distant environment as the radiance(origin, direction) callable that the

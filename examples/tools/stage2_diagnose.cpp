@@ -32,6 +32,7 @@
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -50,7 +51,9 @@
 #include "../difftrans/stage_output.hpp"
 #include "../difftrans/views.hpp"
 #include "difftrans/geometry/remesh.hpp"
+#include "difftrans/io/hdr.hpp"
 #include "difftrans/optim/large_steps.hpp"
+#include "pipeline/environment.hpp"
 #include "pipeline/materials.hpp"
 
 namespace {
@@ -977,6 +980,147 @@ std::vector<double> parse_numbers(const std::string& text, const std::string& op
 
 }  // namespace
 
+// ------------------------------------------------------------------ environment
+
+struct EnvironmentOptions {
+  fs::path truth;    // the true map (default SCENE/gt/envmap.hdr)
+  int batches = 8;
+  int margin = 2;    // the environment stage's margin around the masks
+  float glint = 20.0f;
+  fs::path write_filled;  // the recovered map with its unseen texels from the true map (an experiment's input)
+};
+
+// The parts of the sphere the object's rays escape to: seen or not by any
+// background pixel of the training views (the texels a bilinear lookup of an
+// observation touches, at the map's resolution), upper or lower hemisphere.
+enum EscapeRegion : int { seen_upper, seen_lower, unseen_upper, unseen_lower, region_count };
+const char* region_name(int r) {
+  static const char* names[] = {"seen_upper", "seen_lower", "unseen_upper", "unseen_lower"};
+  return names[r];
+}
+
+// An escape that sees `map` in one region and black elsewhere.
+struct RegionEscape {
+  scene::EnvMap map;
+  const std::vector<std::uint8_t>* seen;
+  int width, height, region;
+  template <class Reader>
+  Vec3f operator()(Reader& reader, const render::SceneView&, const Vec3f&, const Vec3f& d) const {
+    const Vec2f uv = scene::direction_to_uv(d);
+    const int col = std::clamp(int(uv.x * float(width)), 0, width - 1);
+    const int row = std::clamp(int(uv.y * float(height)), 0, height - 1);
+    const bool is_seen = (*seen)[std::size_t(row) * std::size_t(width) + std::size_t(col)] != 0;
+    const int r = (is_seen ? 0 : 2) + (uv.y > 0.5f ? 1 : 0);
+    return r == region ? scene::lookup(reader, map, d) : Vec3f(0.0f);
+  }
+};
+
+// Where the light of the object's pixels comes from, and how the recovered
+// map differs from the true one there. The object (the given mesh and
+// material) is traced along Stage2's batches, once per region of the sphere
+// with the true map and once with the recovered one (each seeing only that
+// region): per region and channel the sum over the batches' rays, beside the
+// photographs' sum over the same pixels.
+io::Json environment_sources(Setup& setup, const EnvironmentOptions& o) {
+  const cli::Environment& recovered = setup.environment();
+  if (recovered.map.width == 0) throw std::runtime_error("environment: --env must be a map");
+  const fs::path truth_file = o.truth.empty() ? setup.data().gt.envmap : o.truth;
+  if (truth_file.empty() || !fs::exists(truth_file)) throw io::Error(truth_file, "true map not found (give --truth)");
+  const cli::Environment truth = cli::load_environment(truth_file.string());
+  if (truth.map.width == 0) throw io::Error(truth_file, "not a map");
+  const int W = recovered.map.width, H = recovered.map.height;
+  // the texels background observations touch, at the recovered map's size
+  pipeline::BackgroundOptions bo;
+  bo.margin = o.margin;
+  const std::vector<scene::EnvObservation> obs = pipeline::background_observations(setup.data().train, bo);
+  const std::vector<std::uint8_t> seen = pipeline::seen_texels(obs, W, H);
+  double seen_solid = 0.0, all_solid = 0.0;
+  for (int row = 0; row < H; ++row) {
+    const double a = std::sin(3.14159265358979323846 * (row + 0.5) / H);
+    for (int col = 0; col < W; ++col) {
+      all_solid += a;
+      if (seen[std::size_t(row) * std::size_t(W) + std::size_t(col)]) seen_solid += a;
+    }
+  }
+  if (!o.write_filled.empty()) {
+    io::Image filled = recovered.map;
+    const scene::EnvMap t = scene::equirect_environment(truth.map.rgb.data(), truth.map.width, truth.map.height);
+    ad::ParamReader<float> reader(nullptr);
+    for (int row = 0; row < H; ++row)
+      for (int col = 0; col < W; ++col)
+        if (!seen[std::size_t(row) * std::size_t(W) + std::size_t(col)])
+          filled.set(col, row, scene::lookup_uv(reader, t, Vec2f((float(col) + 0.5f) / float(W), (float(row) + 0.5f) / float(H))));
+    io::write_hdr(o.write_filled, filled);
+  }
+  const scene::EnvMap maps[2] = {scene::equirect_environment(truth.map.rgb.data(), truth.map.width, truth.map.height),
+                                 scene::equirect_environment(recovered.map.rgb.data(), W, H)};
+  HostScene& s = setup.scene();
+  for (bool& d : s.differentiate) d = false;
+  const render::SceneView view = s.view(false);
+  const ad::ParamSet params = s.params();
+  std::array<std::array<Vec3d, region_count>, 2> sums{};
+  Vec3d photographed(0.0);
+  std::int64_t rays_traced = 0, glint_pixels = 0;
+  for (int b = 0; b < o.batches; ++b) {
+    std::vector<BatchRay> rays;
+    std::vector<Vec3f> target;
+    setup.batch(b, rays, target);
+    std::vector<Vec3f> L[2][region_count];
+    std::vector<Vec3f> full[2] = {std::vector<Vec3f>(rays.size(), Vec3f(0.0f)), std::vector<Vec3f>(rays.size(), Vec3f(0.0f))};
+    for (int m = 0; m < 2; ++m)
+      for (int r = 0; r < region_count; ++r) {
+        L[m][r].assign(rays.size(), Vec3f(0.0f));
+        const RegionEscape escape{maps[m], &seen, W, H, r};
+        ThreadPool::global().parallel_for(std::int64_t(rays.size()), 64, [&](std::int64_t i0, std::int64_t i1, int) {
+          ad::ParamReader<float> reader(&params);
+          for (std::int64_t i = i0; i < i1; ++i)
+            L[m][r][std::size_t(i)] = render::trace<float>(view, s.accel(), reader, rays[std::size_t(i)].origin,
+                                                           rays[std::size_t(i)].direction, setup.trace(), nullptr,
+                                                           escape);
+        });
+        for (std::size_t i = 0; i < rays.size(); ++i) full[m][i] += L[m][r][i];
+      }
+    // glints (Stage2Config::sigma_search_glint): a pixel whose photograph or
+    // either render is brighter than the level is left out of every sum
+    const float level = setup.stage().glint_level(target, o.glint);
+    for (std::size_t i = 0; i < rays.size(); ++i) {
+      if (pipeline::Stage2::glinting(target[i], &full[0][i], 1, level) ||
+          pipeline::Stage2::glinting(target[i], &full[1][i], 1, level)) {
+        ++glint_pixels;
+        continue;
+      }
+      ++rays_traced;
+      photographed += Vec3d(target[i]);
+      for (int m = 0; m < 2; ++m)
+        for (int r = 0; r < region_count; ++r) sums[std::size_t(m)][std::size_t(r)] += Vec3d(L[m][r][i]);
+    }
+  }
+  const auto rgb = [](const Vec3d& v) { return io::Json::array({v.x, v.y, v.z}); };
+  io::Json regions = io::Json::object();
+  Vec3d total_true(0.0), total_recovered(0.0);
+  for (int r = 0; r < region_count; ++r) {
+    const Vec3d t = sums[0][std::size_t(r)], c = sums[1][std::size_t(r)];
+    total_true += t;
+    total_recovered += c;
+    regions[region_name(r)] = {{"true_sum", rgb(t)}, {"recovered_sum", rgb(c)},
+                               {"recovered_over_true", rgb(Vec3d(c.x / t.x, c.y / t.y, c.z / t.z))}};
+  }
+  for (int r = 0; r < region_count; ++r) {
+    const Vec3d t = sums[0][std::size_t(r)];
+    regions[region_name(r)]["share_of_true_light"] =
+        rgb(Vec3d(t.x / total_true.x, t.y / total_true.y, t.z / total_true.z));
+  }
+  return {{"map_size", {W, H}},
+          {"background_observations", obs.size()},
+          {"seen_solid_angle_fraction", seen_solid / all_solid},
+          {"rays", rays_traced},
+          {"glint_pixels_left_out", glint_pixels},
+          {"photographed_sum", rgb(photographed)},
+          {"true_sum", rgb(total_true)},
+          {"recovered_sum", rgb(total_recovered)},
+          {"regions", regions}};
+}
+
 int main(int argc, char** argv) {
   CLI::App app{"stage2_diagnose: why stage 2's vertex refinement fails, in numbers (JSON on stdout)"};
   app.require_subcommand(1);
@@ -1030,6 +1174,19 @@ int main(int argc, char** argv) {
   r->add_option("--gradient-batches", io_.gradient_batches, "Batches of dL/dIoR at the material's IoR")
       ->capture_default_str()->check(CLI::PositiveNumber);
 
+  EnvironmentOptions eo;
+  CLI::App* e = app.add_subcommand("environment", "Where the object's light comes from (seen / unseen by the "
+                                                   "background, upper / lower hemisphere), true map against --env");
+  add_common(e, common);
+  e->add_option("--truth", eo.truth, "True map (default SCENE/gt/envmap.hdr)");
+  e->add_option("--batches", eo.batches, "Stage 2's batches traced")->capture_default_str()->check(CLI::PositiveNumber);
+  e->add_option("--margin", eo.margin, "Pixels around the masks left out of the background (as the environment stage)")
+      ->capture_default_str();
+  e->add_option("--glint", eo.glint, "Pixels brighter than this times the batch's median photograph, in the photograph "
+                                     "or a render, are left out (0: none)")->capture_default_str();
+  e->add_option("--write-filled", eo.write_filled, "Write --env with the texels no background pixel sees taken from the "
+                                                   "true map (.hdr)");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -1060,6 +1217,8 @@ int main(int argc, char** argv) {
       io_.clip_ior = parse_numbers(clip_ior, "--clip-ior");
       if (!check_steps.empty()) io_.check_steps = parse_numbers(check_steps, "--check-steps");
       result["ior_scan"] = ior_scan(setup, io_);
+    } else if (e->parsed()) {
+      result["environment_sources"] = environment_sources(setup, eo);
     } else {
       ho.blurs = parse_numbers(blurs, "--blurs");
       result["home"] = home(setup, ho);
