@@ -184,6 +184,14 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
     j["sigma_search"] = {{"sigma", ev.sigma},
                          {"rendered_sum", rendered},
                          {"photographed_sum", {ev.photographed[0], ev.photographed[1], ev.photographed[2]}}};
+    const Vec3f k0 = stage.searched_sky();
+    if (std::isfinite(k0.x)) {  // Stage2Config::fit_unseen_sky: the search's factor, per channel found with σ or not
+      j["sigma_search"]["sky_start"] = {k0.x, k0.y, k0.z};
+      j["sigma_search"]["sky_found_with_sigma"] = {ev.sky_joint[0], ev.sky_joint[1], ev.sky_joint[2]};
+      progress("materials: starting factor of the unseen sky " + fixed(k0.x, 3) + ", " + fixed(k0.y, 3) + ", " +
+               fixed(k0.z, 3) + " (with the absorption from two halves of the pixels" +
+               (ev.sky_joint[0] && ev.sky_joint[1] && ev.sky_joint[2] ? ")" : "; not in every channel)"));
+    }
     progress("materials: starting absorption " + fixed(s0.x, 3) + ", " + fixed(s0.y, 3) + ", " + fixed(s0.z, 3) +
              " per unit length (the rendered light matched to the photographs' over " +
              std::to_string(ev.sigma.size()) + " grey values)");

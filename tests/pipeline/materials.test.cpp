@@ -242,6 +242,10 @@ TEST_CASE("stage 2 fits the sky no background pixel saw") {
     st.set_seen_texels(seen);
     CHECK(st.sky_fitted() == sky);
     CHECK(st.unseen_solid_angle_fraction() == doctest::Approx(0.25).epsilon(0.05));  // 1 - cos 60 deg, over 2
+    st.step();
+    const Vec3f s0 = st.searched_sigma(), k0 = st.searched_sky();
+    MESSAGE(std::string(sky ? "with" : "without") << " the factor: search start sigma " << s0.x << ", " << s0.y << ", " << s0.z
+                                       << ", sky " << k0.x << ", " << k0.y << ", " << k0.z);
     while (!st.done()) st.step();
     scale = st.unseen_sky_scale();
     // σ at the 8 grid vertices inside the sphere
