@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -170,6 +171,21 @@ inline std::vector<std::uint8_t> seen_texels(const std::vector<scene::EnvObserva
       if (f.weight[k] > 0.0f) seen[std::size_t(f.texel[k])] = 1;
   }
   return seen;
+}
+
+// The share of the sphere's solid angle that the marked texels of a
+// width x height equirectangular map cover (a texel row at polar angle θ
+// spans sin θ of it).
+inline double seen_solid_angle_fraction(const std::vector<std::uint8_t>& seen, int width, int height) {
+  double marked = 0.0, all = 0.0;
+  for (int row = 0; row < height; ++row) {
+    const double a = std::sin(3.14159265358979323846 * (row + 0.5) / height);
+    for (int col = 0; col < width; ++col) {
+      all += a;
+      if (seen[std::size_t(row) * std::size_t(width) + std::size_t(col)]) marked += a;
+    }
+  }
+  return all > 0.0 ? marked / all : 0.0;
 }
 
 // A distant environment as the radiance(origin, direction) callable that the

@@ -40,6 +40,7 @@
 #include "difftrans/scene/absorption.hpp"
 #include "difftrans/scene/envmap_blur.hpp"
 #include "pipeline/config.hpp"
+#include "pipeline/environment.hpp"
 #include "pipeline/geometry_refine.hpp"
 
 namespace difftrans::losses {
@@ -428,17 +429,8 @@ class Stage2 {
   bool sky_fitted() const { return config_.fit_unseen_sky && unseen_texels_ > 0; }
   Vec3f unseen_sky_scale() const { return Vec3f(std::exp(sky_log_[0]), std::exp(sky_log_[1]), std::exp(sky_log_[2])); }
   double unseen_solid_angle_fraction() const {
-    if (seen_.empty()) return 0.0;
-    const int W = scene_.environment_width, H = scene_.environment_height;
-    double unseen = 0.0, all = 0.0;
-    for (int row = 0; row < H; ++row) {
-      const double a = std::sin(3.14159265358979323846 * (row + 0.5) / H);
-      for (int col = 0; col < W; ++col) {
-        all += a;
-        if (!seen_[std::size_t(row) * std::size_t(W) + std::size_t(col)]) unseen += a;
-      }
-    }
-    return all > 0.0 ? unseen / all : 0.0;
+    return seen_.empty() ? 0.0
+                         : 1.0 - seen_solid_angle_fraction(seen_, scene_.environment_width, scene_.environment_height);
   }
 
   const Stage2Config& config() const { return config_; }
@@ -1002,6 +994,10 @@ class Stage2 {
         scene::equirect_environment(seen_only.data(), scene_.environment_width, scene_.environment_height);
     const scene::EnvMap unseen_map =
         scene::equirect_environment(unseen_only.data(), scene_.environment_width, scene_.environment_height);
+    // an escape that sees a map of its own instead of the scene's
+    const auto map_escape = [](const scene::EnvMap& map) {
+      return [&map](auto& reader, const SceneView&, const Vec3f&, const Vec3f& d) { return scene::lookup(reader, map, d); };
+    };
     struct Sums {
       std::vector<std::array<double, 3>> seen, unseen;  // per σ
       std::array<double, 3> photographed{0.0, 0.0, 0.0};
@@ -1020,8 +1016,8 @@ class Stage2 {
       for (std::size_t q = 0; q < grid.size(); ++q) {
         scene_.set_homogeneous_absorption(Vec3f(grid[q]));
         if (split) {
-          L[q] = trace_with_map(rays, seen_map);
-          Lu[q] = trace_with_map(rays, unseen_map);
+          L[q] = trace_batch(scene_, rays, config_.trace, map_escape(seen_map));
+          Lu[q] = trace_batch(scene_, rays, config_.trace, map_escape(unseen_map));
           for (std::size_t i = 0; i < L[q].size(); ++i) L[q][i] += Lu[q][i];
         } else {
           L[q] = trace_batch(scene_, rays, config_.trace);
@@ -1123,22 +1119,6 @@ class Stage2 {
     }
   }
 
-  // The object traced along `rays` (primal) with a distant map of its own.
-  std::vector<Vec3f> trace_with_map(const std::vector<BatchRay>& rays, const scene::EnvMap& map) const {
-    std::vector<Vec3f> out(rays.size(), Vec3f(0.0f));
-    const SceneView view = scene_.view(false);
-    const ad::ParamSet params = scene_.params();
-    const auto escape = [&map](auto& reader, const SceneView&, const Vec3f&, const Vec3f& d) {
-      return scene::lookup(reader, map, d);
-    };
-    ThreadPool::global().parallel_for(std::int64_t(rays.size()), 64, [&](std::int64_t b, std::int64_t e, int) {
-      ad::ParamReader<float> reader(&params);
-      for (std::int64_t i = b; i < e; ++i)
-        out[std::size_t(i)] = trace<float>(view, scene_.accel(), reader, rays[std::size_t(i)].origin,
-                                           rays[std::size_t(i)].direction, config_.trace, nullptr, escape);
-    });
-    return out;
-  }
 
   // The map as given with its unseen texels times the fitted factor; the
   // scene's map follows (blurred as the iteration asks).

@@ -1034,14 +1034,6 @@ io::Json environment_sources(Setup& setup, const EnvironmentOptions& o) {
   bo.margin = o.margin;
   const std::vector<scene::EnvObservation> obs = pipeline::background_observations(setup.data().train, bo);
   const std::vector<std::uint8_t> seen = pipeline::seen_texels(obs, W, H);
-  double seen_solid = 0.0, all_solid = 0.0;
-  for (int row = 0; row < H; ++row) {
-    const double a = std::sin(3.14159265358979323846 * (row + 0.5) / H);
-    for (int col = 0; col < W; ++col) {
-      all_solid += a;
-      if (seen[std::size_t(row) * std::size_t(W) + std::size_t(col)]) seen_solid += a;
-    }
-  }
   if (!o.write_filled.empty()) {
     io::Image filled = recovered.map;
     const scene::EnvMap t = scene::equirect_environment(truth.map.rgb.data(), truth.map.width, truth.map.height);
@@ -1054,10 +1046,7 @@ io::Json environment_sources(Setup& setup, const EnvironmentOptions& o) {
   }
   const scene::EnvMap maps[2] = {scene::equirect_environment(truth.map.rgb.data(), truth.map.width, truth.map.height),
                                  scene::equirect_environment(recovered.map.rgb.data(), W, H)};
-  HostScene& s = setup.scene();
-  for (bool& d : s.differentiate) d = false;
-  const render::SceneView view = s.view(false);
-  const ad::ParamSet params = s.params();
+  const HostScene& s = setup.scene();
   std::array<std::array<Vec3d, region_count>, 2> sums{};
   Vec3d photographed(0.0);
   std::int64_t rays_traced = 0, glint_pixels = 0;
@@ -1069,15 +1058,7 @@ io::Json environment_sources(Setup& setup, const EnvironmentOptions& o) {
     std::vector<Vec3f> full[2] = {std::vector<Vec3f>(rays.size(), Vec3f(0.0f)), std::vector<Vec3f>(rays.size(), Vec3f(0.0f))};
     for (int m = 0; m < 2; ++m)
       for (int r = 0; r < region_count; ++r) {
-        L[m][r].assign(rays.size(), Vec3f(0.0f));
-        const RegionEscape escape{maps[m], &seen, W, H, r};
-        ThreadPool::global().parallel_for(std::int64_t(rays.size()), 64, [&](std::int64_t i0, std::int64_t i1, int) {
-          ad::ParamReader<float> reader(&params);
-          for (std::int64_t i = i0; i < i1; ++i)
-            L[m][r][std::size_t(i)] = render::trace<float>(view, s.accel(), reader, rays[std::size_t(i)].origin,
-                                                           rays[std::size_t(i)].direction, setup.trace(), nullptr,
-                                                           escape);
-        });
+        L[m][r] = render::trace_batch(s, rays, setup.trace(), RegionEscape{maps[m], &seen, W, H, r});
         for (std::size_t i = 0; i < rays.size(); ++i) full[m][i] += L[m][r][i];
       }
     // glints (Stage2Config::sigma_search_glint): a pixel whose photograph or
@@ -1112,7 +1093,7 @@ io::Json environment_sources(Setup& setup, const EnvironmentOptions& o) {
   }
   return {{"map_size", {W, H}},
           {"background_observations", obs.size()},
-          {"seen_solid_angle_fraction", seen_solid / all_solid},
+          {"seen_solid_angle_fraction", pipeline::seen_solid_angle_fraction(seen, W, H)},
           {"rays", rays_traced},
           {"glint_pixels_left_out", glint_pixels},
           {"photographed_sum", rgb(photographed)},

@@ -1,4 +1,5 @@
-// difftrans::metrics umbrella header: Chamfer / F1, PSNR / SSIM, IoR error
+// difftrans::metrics umbrella header: Chamfer / F1, PSNR / SSIM, IoR error,
+// absorption error
 // (docs/metrics.md). Host code; link difftrans::io.
 #pragma once
 

@@ -154,20 +154,28 @@ RayBatchResult ray_group_gradient(const HostScene& s, const std::vector<BatchRay
   return out;
 }
 
-// The radiance along every ray (plain float, no tape), on the thread pool.
-inline std::vector<Vec3f> trace_batch(const HostScene& s, const std::vector<BatchRay>& rays, const TraceSettings& settings) {
+// The radiance along every ray (plain float, no tape), on the thread pool,
+// with the given escape (what a ray leaving the object sees; tracer.hpp).
+template <class Escape>
+std::vector<Vec3f> trace_batch(const HostScene& s, const std::vector<BatchRay>& rays, const TraceSettings& settings,
+                               const Escape& escape) {
   std::vector<Vec3f> out(rays.size(), Vec3f(0.0f));
   const SceneView view = s.view(false);
   const ad::ParamSet params = s.params();
   ThreadPool::global().parallel_for(std::int64_t(rays.size()), 64, [&](std::int64_t b, std::int64_t e, int) {
     ad::ParamReader<float> reader(&params);
-    s.with_escape([&](const auto& escape) {
-      for (std::int64_t i = b; i < e; ++i) {
-        const BatchRay& r = rays[std::size_t(i)];
-        out[std::size_t(i)] = trace<float>(view, s.accel(), reader, r.origin, r.direction, settings, nullptr, escape);
-      }
-    });
+    for (std::int64_t i = b; i < e; ++i) {
+      const BatchRay& r = rays[std::size_t(i)];
+      out[std::size_t(i)] = trace<float>(view, s.accel(), reader, r.origin, r.direction, settings, nullptr, escape);
+    }
   });
+  return out;
+}
+
+// The same with the scene's own environment (its map or near field).
+inline std::vector<Vec3f> trace_batch(const HostScene& s, const std::vector<BatchRay>& rays, const TraceSettings& settings) {
+  std::vector<Vec3f> out;
+  s.with_escape([&](const auto& escape) { out = trace_batch(s, rays, settings, escape); });
   return out;
 }
 
