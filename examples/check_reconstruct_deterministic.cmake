@@ -14,6 +14,10 @@ foreach(run IN ITEMS 1 3)
   endif()
 endforeach()
 foreach(f IN LISTS outputs)
+  # the grid file only when the absorption model chosen is a grid: then on both
+  if(NOT EXISTS ${WORK_DIR}/threads1/${f} AND NOT EXISTS ${WORK_DIR}/threads3/${f} AND f STREQUAL "absorption_stage2.json")
+    continue()
+  endif()
   execute_process(COMMAND ${CMAKE_COMMAND} -E compare_files ${WORK_DIR}/threads1/${f} ${WORK_DIR}/threads3/${f}
                   RESULT_VARIABLE diff)
   if(NOT diff EQUAL 0)

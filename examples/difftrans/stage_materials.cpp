@@ -16,6 +16,7 @@
 #include <cmath>
 #include <exception>
 #include <string>
+#include <system_error>
 #include <sys/resource.h>
 
 #include "difftrans/io/hdr.hpp"
@@ -88,7 +89,12 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
 
   progress("materials: " + std::to_string(cfg.iterations) + " iterations over " + std::to_string(views.size()) +
            " views, " + std::to_string(cfg.rays_per_iteration) + " rays each, IoR from " + fixed(cfg.ior_init, 3) +
-           ", absorption grid " + std::to_string(cfg.absorption_res) + "^3" +
+           ", absorption " +
+           (cfg.absorption_model == pipeline::AbsorptionModel::automatic
+                ? "chosen from none, homogeneous and grids up to " + std::to_string(cfg.absorption_res) + "^3"
+            : cfg.absorption_model == pipeline::AbsorptionModel::grid
+                ? "grid " + std::to_string(cfg.absorption_res) + "^3"
+                : pipeline::detail::enum_name(cfg.absorption_model)) +
            (cfg.optimize_positions ? ", vertices after " + std::to_string(cfg.freeze_geometry) : std::string()));
   pipeline::Stage2 stage(s, views, mask_views, cfg);
   // the directions the training views' background saw (Stage2Config::fit_unseen_sky)
@@ -119,7 +125,22 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
     ProgressMeter meter("materials", cfg.iterations, stage.iteration());
     auto last_save = clock::now();
     while (!stage.done()) {
+      const bool choosing = stage.iteration() == 0 && stage.absorption_choice().is_null() &&
+                            cfg.absorption_model == pipeline::AbsorptionModel::automatic && cfg.optimize_absorption;
+      if (choosing)
+        progress("materials: choosing the absorption model on " + std::to_string(cfg.selection_batches) +
+                 " held-out batches (every " + std::to_string(cfg.selection_holdout) + "th view; " +
+                 std::to_string(cfg.selection_iterations) + " iterations per candidate)");
       const pipeline::Stage2Stats st = stage.step();
+      if (choosing) {
+        const io::Json& c = stage.absorption_choice();
+        progress("materials: absorption " + c.value("summary", std::string()) + ", in " +
+                 duration_text(c.value("seconds", 0.0)));
+        if (c.value("richest_still_improves", false))
+          warn("materials: the finest absorption grid (" + std::to_string(cfg.absorption_res) +
+               "^3) still lowers the held-out loss measurably: the absorption may vary more sharply than it resolves "
+               "(raise --absorption-res)");
+      }
       meter.update(st.iteration + 1, "colour " + fixed(st.color, 5) + " IoR " + fixed(st.ior, 4) + " mean sigma (" +
                                          fixed(st.mean_sigma.x, 3) + ", " + fixed(st.mean_sigma.y, 3) + ", " +
                                          fixed(st.mean_sigma.z, 3) + ")" +
@@ -175,6 +196,15 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
   j["ior"] = s.ior;
   const Vec3f ms = stage.mean_sigma();
   j["mean_sigma"] = {ms.x, ms.y, ms.z};
+  {  // the model fitted: given, or chosen from the photographs (its record)
+    io::Json model = stage.absorption_choice();
+    if (model.is_null()) model = {{"requested", pipeline::detail::enum_name(cfg.absorption_model)}};
+    model["fitted"] = s.absorption_kind == scene::AbsorptionKind::grid          ? "grid"
+                      : s.absorption_kind == scene::AbsorptionKind::homogeneous ? "homogeneous"
+                                                                                : "none";
+    if (s.absorption_kind == scene::AbsorptionKind::grid) model["fitted_res"] = s.absorption_res.x;
+    j["absorption_model"] = model;
+  }
   const Vec3f s0 = stage.searched_sigma();
   if (std::isfinite(s0.x)) {  // Stage2Config::sigma_search's choice and its evidence
     j["sigma_start"] = {s0.x, s0.y, s0.z};
@@ -200,14 +230,26 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
   // outputs: material, mesh, loss curve
   io::Material mat;
   mat.ior = s.ior;
-  mat.absorption = io::AbsorptionType::grid;
-  mat.grid.res = s.absorption_res;
-  mat.grid.lo = s.absorption_lo;
-  mat.grid.hi = s.absorption_hi;
-  mat.grid.sigma.resize(s.absorption_raw.size());
-  for (std::size_t i = 0; i < s.absorption_raw.size(); ++i) mat.grid.sigma[i] = ad::softplus(s.absorption_raw[i]);
-  mat.grid_file = "absorption_stage2.json";
+  if (s.absorption_kind == scene::AbsorptionKind::grid) {
+    mat.absorption = io::AbsorptionType::grid;
+    mat.grid.res = s.absorption_res;
+    mat.grid.lo = s.absorption_lo;
+    mat.grid.hi = s.absorption_hi;
+    mat.grid.sigma.resize(s.absorption_raw.size());
+    for (std::size_t i = 0; i < s.absorption_raw.size(); ++i) mat.grid.sigma[i] = ad::softplus(s.absorption_raw[i]);
+    mat.grid_file = "absorption_stage2.json";
+  } else if (s.absorption_kind == scene::AbsorptionKind::homogeneous) {
+    mat.absorption = io::AbsorptionType::homogeneous;
+    mat.sigma = Vec3f(ad::softplus(s.absorption_raw[0]), ad::softplus(s.absorption_raw[1]),
+                      ad::softplus(s.absorption_raw[2]));
+  } else {
+    mat.absorption = io::AbsorptionType::none;
+  }
   io::write_material(out / "material_stage2.json", mat);
+  if (mat.absorption != io::AbsorptionType::grid) {  // an earlier run's grid would be taken for this one's
+    std::error_code ignored;
+    fs::remove(out / "absorption_stage2.json", ignored);
+  }
   io::write_mesh(out / "mesh_stage2.obj", to_io_mesh(s.mesh.positions, s.mesh.triangles));
   if (stage.sky_fitted()) {
     // the map with its unseen sky scaled: what the fit saw, and what the test renders use
@@ -252,7 +294,12 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
         const std::vector<Vec3f> inside =
             metrics::interior_points(gt_mesh.positions, gt_mesh.triangles, absorption_error_lattice);
         const auto e = metrics::absorption_error(
-            inside, [&](const Vec3f& p) { return metrics::grid_sigma_at(mat.grid, p); },
+            inside,
+            [&](const Vec3f& p) {
+              return mat.absorption == io::AbsorptionType::grid          ? metrics::grid_sigma_at(mat.grid, p)
+                     : mat.absorption == io::AbsorptionType::homogeneous ? mat.sigma
+                                                                         : Vec3f(0.0f);
+            },
             [&](const Vec3f& p) {
               return gt.absorption == io::AbsorptionType::grid          ? metrics::grid_sigma_at(gt.grid, p)
                      : gt.absorption == io::AbsorptionType::homogeneous ? gt.sigma

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "support/shapes.hpp"
+#include "support/stage2_photos.hpp"
 
 namespace dr = difftrans::render;
 namespace ds = difftrans::scene;
@@ -22,51 +23,12 @@ namespace losses = difftrans::losses;
 namespace pipeline = difftrans::pipeline;
 namespace dg = difftrans::geometry;
 using difftrans::Vec3f;
+using dt_test::mask_views_of;
+using dt_test::photograph;
+using dt_test::Photos;
+using dt_test::views_of;
 
 namespace {
-
-struct Photos {
-  std::vector<ds::Camera> cams;
-  std::vector<std::vector<float>> images;
-  std::vector<std::vector<std::uint8_t>> masks;
-};
-
-// Reference photographs of a scene: depth 8, 2×2 samples per pixel; masks from the silhouette.
-Photos photograph(const dr::HostScene& truth, int views, int res) {
-  Photos p;
-  dr::PassOptions ref;
-  ref.trace.max_depth = 8;
-  ref.samples_per_axis = 2;
-  const double golden = 3.14159265358979323846 * (3.0 - std::sqrt(5.0));
-  for (int i = 0; i < views; ++i) {
-    const double y = 0.8 * (1.0 - 2.0 * (i + 0.5) / views), r = std::sqrt(1.0 - y * y), phi = golden * i;
-    const ds::Camera cam = ds::protocol_camera(Vec3f(float(r * std::cos(phi)), float(y), float(r * std::sin(phi))), res, res);
-    p.cams.push_back(cam);
-    p.images.push_back(dr::render_image(truth, cam, ref));
-    std::vector<float> m = dr::silhouette_mask<float>(truth.mesh, cam);
-    std::vector<std::uint8_t> mask(m.size());
-    for (std::size_t k = 0; k < m.size(); ++k) mask[k] = m[k] > 0.5f;
-    p.masks.push_back(std::move(mask));
-  }
-  return p;
-}
-
-std::vector<pipeline::Stage2View> views_of(const Photos& p) {
-  std::vector<pipeline::Stage2View> v;
-  for (std::size_t i = 0; i < p.cams.size(); ++i) v.push_back({p.cams[i], p.images[i].data(), p.masks[i].data()});
-  return v;
-}
-
-std::vector<pipeline::Stage1View> mask_views_of(const Photos& p) {
-  std::vector<pipeline::Stage1View> v;
-  for (std::size_t i = 0; i < p.cams.size(); ++i) {
-    pipeline::Stage1View s;
-    s.camera = p.cams[i];
-    for (std::uint8_t m : p.masks[i]) s.target.push_back(m ? 1.0f : 0.0f);
-    v.push_back(std::move(s));
-  }
-  return v;
-}
 
 dr::HostScene glass_sphere(float ior, const Vec3f& sigma) {
   const dt_test::Shape ico = dt_test::make_icosphere(0.4f, 3);
@@ -104,6 +66,7 @@ TEST_CASE("stage 2 recovers IoR and absorption on a glass sphere (geometry known
   const Photos photos = photograph(truth, 10, 40);
   dr::HostScene s = glass_sphere(1.3f, Vec3f(0.0f));
   pipeline::Stage2Config cfg;
+  cfg.absorption_model = pipeline::AbsorptionModel::grid;
   cfg.iterations = 600;
   cfg.ior_init = 1.55f;
   cfg.ior_warmup = 100;  // the IoR's slow warm-up (the paper's 1e-4) while the absorption finds its level
@@ -227,6 +190,7 @@ TEST_CASE("stage 2 fits the sky no background pixel saw") {
     for (int t = 0; t < W * unseen_rows; ++t)
       for (int c = 0; c < 3; ++c) s.environment[std::size_t(3 * t + c)] *= 2.0f;
     pipeline::Stage2Config cfg;
+    cfg.absorption_model = pipeline::AbsorptionModel::grid;
     cfg.iterations = 300;
     cfg.ior_init = 1.45f;
     cfg.optimize_ior = false;
@@ -297,6 +261,7 @@ TEST_CASE("stage 2 with geometry: a dented sphere moves towards the truth") {
     return e / double(n);
   };
   pipeline::Stage2Config cfg;
+  cfg.absorption_model = pipeline::AbsorptionModel::grid;
   cfg.iterations = 120;
   cfg.freeze_geometry = 20;
   cfg.rays_per_iteration = 1024;
@@ -377,6 +342,7 @@ TEST_CASE("stage 2 with geometry: refraction finds a pit that the silhouettes ca
   const dr::HostScene truth = pitted(glass_sphere(1.45f, Vec3f(0.0f)));
   const Photos photos = photograph(truth, 12, 48);
   pipeline::Stage2Config cfg;
+  cfg.absorption_model = pipeline::AbsorptionModel::grid;
   cfg.iterations = 160;
   cfg.freeze_geometry = 10;
   cfg.rays_per_iteration = 1024;
@@ -430,6 +396,15 @@ TEST_CASE("stage 2 checkpoint: a resumed fit repeats the uninterrupted one, and 
   cfg.lr_ior = 1e-3f;
   cfg.rays_per_iteration = 256;
   cfg.absorption_res = 3;
+  bool grid = true;
+  SUBCASE("a grid") { cfg.absorption_model = pipeline::AbsorptionModel::grid; }
+  SUBCASE("the absorption model chosen before the first iteration: the choice goes through the file") {
+    cfg.absorption_model = pipeline::AbsorptionModel::automatic;
+    cfg.selection_iterations = 3;
+    cfg.selection_batches = 1;
+    cfg.selection_holdout = 3;
+    grid = false;
+  }
   const auto fresh = [] { return glass_sphere(1.3f, Vec3f(0.0f)); };
   const std::filesystem::path file =
       std::filesystem::temp_directory_path() / ("difftrans-stage2-" + std::to_string(::getpid()) + ".bin");
@@ -459,8 +434,14 @@ TEST_CASE("stage 2 checkpoint: a resumed fit repeats the uninterrupted one, and 
     CHECK(c.mesh.positions == a.mesh.positions);
     CHECK(c.mesh.positions != fresh().mesh.positions);  // the vertices did move
     CHECK(second.history().back().color == straight.history().back().color);
+    CHECK(c.absorption_kind == a.absorption_kind);
+    if (!grid) {
+      REQUIRE(second.absorption_choice().is_object());
+      CHECK(second.absorption_choice()["summary"] == straight.absorption_choice()["summary"]);
+      CHECK(second.absorption_choice()["candidates"].size() == straight.absorption_choice()["candidates"].size());
+    }
   }
-  {  // a checkpoint of another grid size is refused
+  if (grid) {  // a checkpoint of another grid size is refused
     pipeline::Stage2Config other = cfg;
     other.absorption_res = 4;
     dr::HostScene d = fresh();

@@ -1,0 +1,166 @@
+// The absorption model chosen from the photographs (pipeline/absorption_model.hpp
+// and Stage2's automatic choice): the paired comparison, the resampling of a
+// field onto a finer grid, and the decision on three glass spheres, clear,
+// uniformly tinted and banded, each of which must get its own model.
+#include "pipeline/absorption_model.hpp"
+
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "pipeline/materials.hpp"
+#include "support/shapes.hpp"
+#include "support/stage2_photos.hpp"
+
+namespace dr = difftrans::render;
+namespace ds = difftrans::scene;
+namespace pipeline = difftrans::pipeline;
+using difftrans::Vec3f;
+using difftrans::Vec3i;
+
+TEST_CASE("paired comparison: the mean difference, its standard error, pixels left out in either") {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  // differences 1, 3, (left out), 2, (left out): mean 2, sd 1, se 1/sqrt(3)
+  const std::vector<double> simpler{11.0, 13.0, nan, 12.0, 5.0};
+  const std::vector<double> richer{10.0, 10.0, 4.0, 10.0, nan};
+  const pipeline::PairedComparison c = pipeline::compare_paired(simpler, richer);
+  CHECK(c.pixels == 3);
+  CHECK(c.simpler == doctest::Approx(12.0));
+  CHECK(c.richer == doctest::Approx(10.0));
+  CHECK(c.gain == doctest::Approx(2.0));
+  CHECK(c.standard_error == doctest::Approx(1.0 / std::sqrt(3.0)));
+  CHECK(c.richer_wins(2.0, 0.1));        // 2 > 2 · 0.577 and 2 > 0.1 · 12
+  CHECK_FALSE(c.richer_wins(4.0, 0.1));  // not 4 standard errors
+  CHECK_FALSE(c.richer_wins(2.0, 0.2));  // not 20 % of the loss
+  // the richer one worse: never kept
+  const pipeline::PairedComparison w = pipeline::compare_paired(richer, simpler);
+  CHECK(w.gain == doctest::Approx(-2.0));
+  CHECK_FALSE(w.richer_wins(0.0, 0.0));
+  // one pixel: no standard error, no decision for the richer
+  CHECK_FALSE(pipeline::compare_paired({2.0}, {1.0}).richer_wins(0.0, 0.0));
+}
+
+TEST_CASE("resampling an absorption onto a finer grid keeps its field") {
+  const Vec3f lo(-0.5f, -0.4f, -0.3f), hi(0.5f, 0.6f, 0.3f);
+  // homogeneous -> 3 x 3 x 3: every vertex the same σ
+  const std::vector<float> h{ds::raw_from_sigma(0.2f), ds::raw_from_sigma(1.0f), ds::raw_from_sigma(3.0f)};
+  const std::vector<float> g =
+      pipeline::resample_absorption(ds::AbsorptionKind::homogeneous, h, Vec3i(2), lo, hi, Vec3i(3));
+  REQUIRE(g.size() == 27 * 3);
+  for (std::size_t v = 0; v < 27; ++v)
+    for (std::size_t c = 0; c < 3; ++c) CHECK(g[3 * v + c] == doctest::Approx(h[c]).epsilon(1e-5));
+  // a field linear in position on 2³ stays linear on 4³ and 7³ (trilinear
+  // interpolation reproduces it), so it is the same at any point
+  std::vector<float> coarse(8 * 3);
+  const auto sigma = [&](const Vec3f& p, int c) { return 1.0f + 0.5f * p.x - 0.8f * p.y + 0.3f * p.z + 0.2f * float(c); };
+  for (int k = 0; k < 2; ++k)
+    for (int j = 0; j < 2; ++j)
+      for (int i = 0; i < 2; ++i)
+        for (int c = 0; c < 3; ++c)
+          coarse[std::size_t(ds::grid_index(Vec3i(2), i, j, k, c))] =
+              ds::raw_from_sigma(sigma(lo + Vec3f(float(i), float(j), float(k)) * (hi - lo), c));
+  const std::vector<float> fine =
+      pipeline::resample_absorption(ds::AbsorptionKind::grid, coarse, Vec3i(2), lo, hi, Vec3i(4));
+  const std::vector<float> finer = pipeline::resample_absorption(ds::AbsorptionKind::grid, fine, Vec3i(4), lo, hi, Vec3i(7));
+  for (const Vec3f& q : {Vec3f(0.1f, 0.2f, 0.3f), Vec3f(0.9f, 0.35f, 0.6f), Vec3f(0.5f, 0.99f, 0.01f)}) {
+    const Vec3f p = lo + q * (hi - lo);
+    const Vec3f a = pipeline::absorption_sigma_at(ds::AbsorptionKind::grid, finer, Vec3i(7), lo, hi, p);
+    for (int c = 0; c < 3; ++c) CHECK(a[c] == doctest::Approx(sigma(p, c)).epsilon(1e-4));
+  }
+  CHECK(pipeline::absorption_sigma_at(ds::AbsorptionKind::none, {}, Vec3i(2), lo, hi, Vec3f(0.0f)) == Vec3f(0.0f));
+}
+
+namespace {
+
+dr::HostScene sphere(float ior) {
+  const dt_test::Shape ico = dt_test::make_icosphere(0.4f, 3);
+  dr::HostScene s(ico.positions, ico.triangles, "sphere");
+  s.ior = ior;
+  s.set_environment_map(dt_test::smooth_sky(64, 32), 64, 32);
+  return s;
+}
+
+// σ above y = 0.1 `above`, below y = -0.1 `below`, a smooth step between,
+// on a 2 x 9 x 2 grid over the sphere's box (monkey-bands' pattern)
+void set_bands(dr::HostScene& s, const Vec3f& above, const Vec3f& below) {
+  const Vec3i res(2, 9, 2);
+  const Vec3f lo(-0.45f), hi(0.45f);
+  std::vector<float> raw(std::size_t(res.x * res.y * res.z) * 3);
+  for (int k = 0; k < res.z; ++k)
+    for (int j = 0; j < res.y; ++j)
+      for (int i = 0; i < res.x; ++i) {
+        const float y = lo.y + (hi.y - lo.y) * float(j) / float(res.y - 1);
+        const float t = std::clamp((y + 0.1f) / 0.2f, 0.0f, 1.0f), w = t * t * (3.0f - 2.0f * t);
+        for (int c = 0; c < 3; ++c)
+          raw[std::size_t(ds::grid_index(res, i, j, k, c))] = ds::raw_from_sigma(below[c] + (above[c] - below[c]) * w);
+      }
+  s.set_grid_absorption(res, lo, hi, std::move(raw));
+}
+
+}  // namespace
+
+TEST_CASE("stage 2 chooses the absorption model from the photographs") {
+  // 16 views of 32², every 4th held out; each candidate fitted for 60
+  // iterations of 2048 rays; grids up to 4³. Each scene must get its model:
+  // a wrong decision either way fails.
+  dr::HostScene truth = sphere(1.45f);
+  std::string expected;
+  SUBCASE("clear glass: none") { expected = "none"; }
+  SUBCASE("a uniform tint: homogeneous") {
+    truth.set_homogeneous_absorption(Vec3f(0.5f, 1.5f, 3.0f));
+    expected = "homogeneous";
+  }
+  SUBCASE("bands: a grid") {
+    set_bands(truth, Vec3f(0.3f, 1.0f, 4.0f), Vec3f(4.0f, 1.0f, 0.3f));
+    expected = "grid";
+  }
+  const dt_test::Photos photos = dt_test::photograph(truth, 16, 32);
+  dr::HostScene s = sphere(1.5f);
+  pipeline::Stage2Config cfg;
+  REQUIRE(cfg.absorption_model == pipeline::AbsorptionModel::automatic);  // the default
+  cfg.iterations = 1;
+  cfg.ior_init = 1.5f;
+  cfg.rays_per_iteration = 2048;
+  cfg.selection_iterations = 60;
+  cfg.selection_batches = 4;
+  cfg.selection_holdout = 4;
+  cfg.absorption_res = 4;
+  cfg.box_lo = Vec3f(-0.45f);
+  cfg.box_hi = Vec3f(0.45f);
+  cfg.ior_settle_batches = 0;
+  pipeline::Stage2 st(s, dt_test::views_of(photos), {}, cfg);
+  st.step();
+  const difftrans::io::Json& choice = st.absorption_choice();
+  REQUIRE(choice.is_object());
+  MESSAGE(choice["summary"].get<std::string>());
+  CHECK(choice["chosen"] == expected);
+  CHECK(choice["heldout_views"].size() == 4);
+  // the fit goes on with the chosen model
+  const ds::AbsorptionKind kind = expected == "none"          ? ds::AbsorptionKind::none
+                                  : expected == "homogeneous" ? ds::AbsorptionKind::homogeneous
+                                                              : ds::AbsorptionKind::grid;
+  CHECK(s.absorption_kind == kind);
+  CHECK(s.ior == doctest::Approx(1.5f).epsilon(0.02));  // the IoR restarts from ior_init (one iteration since)
+  // candidates in order of cost; a richer one is only tried after its simpler neighbour won
+  const auto& candidates = choice["candidates"];
+  REQUIRE(candidates.size() >= 2);
+  CHECK(candidates[0]["model"] == "homogeneous");
+  CHECK(candidates[1]["model"] == "none");
+  if (expected == "grid") {
+    REQUIRE(choice.contains("res"));
+    CHECK(s.absorption_res.x == choice["res"].get<int>());
+    // the finest grid won: the log's warning that the absorption may be sharper
+    CHECK(choice["richest_still_improves"] == (choice["res"].get<int>() == cfg.absorption_res));
+  } else {
+    CHECK_FALSE(choice["richest_still_improves"].get<bool>());
+  }
+  if (expected == "homogeneous") {  // the tint the candidate found
+    const auto& h = candidates[0]["mean_sigma"];
+    CHECK(h[0].get<double>() < h[1].get<double>());
+    CHECK(h[1].get<double>() < h[2].get<double>());
+  }
+}
