@@ -10,10 +10,16 @@
 // Each iteration processes every camera ray once (items = camera rays), so
 // the printed ratios are time per camera ray relative to the accelerator alone.
 // Targets: primal at depth 4 within 2x Embree; gradient within 4x primal.
+// horse/absorption/*: primal and gradient at stage 2's training settings for
+// each absorption model (none, homogeneous, grids of 4³ and 16³), as ratios
+// to the clear primal.
+#include <cstdint>
 #include <cstdio>
 #include <map>
 #include <memory>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "difftrans/io/mesh_file.hpp"
 #include "difftrans/render/host_scene.hpp"
@@ -87,6 +93,40 @@ dr::TraceSettings settings(int depth) {
   return ts;
 }
 
+// The settings stage 2 trains with (examples/pipeline/materials.hpp): the
+// Fresnel tree to 8 interactions, one drawn path to 16, pruning at 0.01 by
+// Russian roulette, 4 samples of a grid's absorption integral per segment.
+dr::TraceSettings training_settings() {
+  dr::TraceSettings ts;
+  ts.max_depth = 16;
+  ts.tree_depth = 8;
+  ts.roulette = true;
+  ts.prune_throughput = 0.01f;
+  ts.integration.samples = 4;
+  return ts;
+}
+
+// The absorption models stage 2 chooses from; a grid's σ varies with height.
+enum class Absorption { unchanged, none, homogeneous, grid4, grid16 };
+void set_absorption(dr::HostScene& s, Absorption a) {
+  if (a == Absorption::unchanged) return;
+  if (a == Absorption::none) {
+    s.absorption_kind = difftrans::scene::AbsorptionKind::none;
+    s.absorption_raw.clear();
+  } else if (a == Absorption::homogeneous) {
+    s.set_homogeneous_absorption(Vec3f(4.0f, 0.4f, 4.0f));
+  } else {
+    const int n = a == Absorption::grid4 ? 4 : 16;
+    std::vector<float> raw;
+    for (int k = 0; k < n; ++k)
+      for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i)
+          for (int c = 0; c < 3; ++c)
+            raw.push_back(difftrans::scene::raw_from_sigma(0.5f + 4.0f * float(j) / float(n - 1) + 0.1f * float(c)));
+    s.set_grid_absorption(difftrans::Vec3i(n), Vec3f(-0.55f), Vec3f(0.55f), std::move(raw));
+  }
+}
+
 void accel_alone(benchmark::State& state, std::string name, int depth) {
   Workload& w = workload(name);
   const auto& segs = w.segments[depth == 4 ? 0 : 1];
@@ -96,21 +136,22 @@ void accel_alone(benchmark::State& state, std::string name, int depth) {
   state.counters["segments_per_second"] = benchmark::Counter(double(segs.size()) * double(state.iterations()), benchmark::Counter::kIsRate);
 }
 
-void primal(benchmark::State& state, std::string name, int depth) {
+void primal(benchmark::State& state, std::string name, dr::TraceSettings ts, Absorption absorption) {
   Workload& w = workload(name);
+  set_absorption(*w.scene, absorption);
   const dr::SceneView view = w.scene->view(false);
   const ad::ParamSet params = w.scene->params();
   ad::ParamReader<float> reader(&params);
-  const dr::TraceSettings ts = settings(depth);
   for (auto _ : state)
     for (const auto& r : w.rays)
       benchmark::DoNotOptimize(dr::trace<float>(view, w.scene->accel(), reader, r.origin, r.direction, ts));
   state.SetItemsProcessed(state.iterations() * std::int64_t(w.rays.size()));
 }
 
-void gradient(benchmark::State& state, std::string name, int depth) {
+void gradient(benchmark::State& state, std::string name, dr::TraceSettings ts, Absorption absorption) {
   using V = ad::Var<float>;
   Workload& w = workload(name);
+  set_absorption(*w.scene, absorption);
   const dr::SceneView view = w.scene->view(true, true);
   ad::ParamSet params = w.scene->params();
   dr::SceneGradient grad(*w.scene);
@@ -118,7 +159,6 @@ void gradient(benchmark::State& state, std::string name, int depth) {
   ad::Tape<float> tape(1 << 22);
   std::vector<ad::LeafRecord> log(1 << 18);
   ad::ParamReader<V> reader(&params, &tape, log.data(), std::int32_t(log.size()));
-  const dr::TraceSettings ts = settings(depth);
   double nodes = 0, rays = 0, overflow = 0;
   for (auto _ : state)
     for (const auto& r : w.rays) {
@@ -173,10 +213,29 @@ int main(int argc, char** argv) {
     for (int depth : {4, 8}) {
       const std::string prefix = name + "/d" + std::to_string(depth) + "/";
       benchmark::RegisterBenchmark((prefix + baseline).c_str(), accel_alone, name, depth)->Unit(benchmark::kMillisecond);
-      benchmark::RegisterBenchmark((prefix + "primal").c_str(), primal, name, depth)->Unit(benchmark::kMillisecond);
-      benchmark::RegisterBenchmark((prefix + "gradient").c_str(), gradient, name, depth)->Unit(benchmark::kMillisecond);
+      benchmark::RegisterBenchmark((prefix + "primal").c_str(), primal, name, settings(depth), Absorption::unchanged)
+          ->Unit(benchmark::kMillisecond);
+      benchmark::RegisterBenchmark((prefix + "gradient").c_str(), gradient, name, settings(depth),
+                                   Absorption::unchanged)
+          ->Unit(benchmark::kMillisecond);
       benchmark::RegisterBenchmark((prefix + "dual_ior").c_str(), dual_ior, name, depth)->Unit(benchmark::kMillisecond);
       groups.emplace_back(prefix, prefix + baseline);
     }
+  // What each absorption model costs the tracer at stage 2's training
+  // settings, relative to clear glass (horse/absorption/none/primal): the
+  // tracer skips the integration when there is none and uses the closed form
+  // for a homogeneous σ.
+  const std::pair<const char*, Absorption> models[] = {{"none", Absorption::none},
+                                                       {"homogeneous", Absorption::homogeneous},
+                                                       {"grid4", Absorption::grid4},
+                                                       {"grid16", Absorption::grid16}};
+  for (const auto& [label, model] : models) {
+    const std::string prefix = std::string("horse/absorption/") + label + "/";
+    benchmark::RegisterBenchmark((prefix + "primal").c_str(), primal, "horse", training_settings(), model)
+        ->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark((prefix + "gradient").c_str(), gradient, "horse", training_settings(), model)
+        ->Unit(benchmark::kMillisecond);
+  }
+  groups.emplace_back("horse/absorption/", "horse/absorption/none/primal");
   return dt_bench::run_with_ratios(argc, argv, groups);
 }

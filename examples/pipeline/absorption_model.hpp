@@ -1,19 +1,18 @@
 // Which absorption model stage 2 fits: none (clear), homogeneous (one RGB σ)
 // or a grid, and the parts of choosing one from the photographs (Stage2's
-// choose_absorption): a paired comparison of two candidates' held-out
-// losses, and a candidate's field carried onto a finer grid.
+// choose_absorption): a candidate's field carried onto a finer grid; the
+// comparison of two candidates is model_choice.hpp's.
 //
 // The rule: candidates are tried in order of cost (none, homogeneous, then
 // grids of 2, 4, 8, ... vertices per axis up to the configured resolution),
 // each fitted on the training views less a held-out few, and the richer of
-// two neighbours is kept only when it lowers the held-out loss measurably:
-// by more than twice the standard error of the per-pixel difference (the
-// same rays and pixels for both: common random numbers, so the rendering
-// noise largely cancels) AND by more than a fixed fraction of the loss. The
-// second condition is there because the held-out pixels are many: a richer
-// absorption always explains a little of what the stage-1 mesh and the
-// recovered environment get wrong, and that gain is "significant" with
-// thousands of pixels yet is not the object's colour.
+// two neighbours is kept only when it lowers the held-out loss measurably
+// (model_choice.hpp; the same rays and pixels for both: common random
+// numbers, so the rendering noise largely cancels). The minimum gain is
+// there because the held-out pixels are many: a richer absorption always
+// explains a little of what the stage-1 mesh and the recovered environment
+// get wrong, and that gain is "significant" with thousands of pixels yet is
+// not the object's colour.
 #pragma once
 
 #include <algorithm>
@@ -26,6 +25,7 @@
 #include "difftrans/ad/glm.hpp"
 #include "difftrans/ad/math.hpp"
 #include "difftrans/scene/absorption.hpp"
+#include "pipeline/model_choice.hpp"
 
 namespace difftrans::pipeline {
 
@@ -33,43 +33,6 @@ enum class AbsorptionModel : int { none, homogeneous, grid, automatic };
 inline const std::array<const char*, 4>& enum_names(AbsorptionModel) {
   static const std::array<const char*, 4> names{"none", "homogeneous", "grid", "auto"};
   return names;
-}
-
-// Two candidates' per-pixel held-out losses (the same pixels in the same
-// order; NaN marks a pixel left out, in either): the mean of each over the
-// pixels both kept, the mean of simpler − richer and its standard error.
-struct PairedComparison {
-  double simpler = 0.0, richer = 0.0;
-  double gain = 0.0, standard_error = 0.0;  // mean (simpler − richer), and its standard error
-  std::size_t pixels = 0;
-  // the richer candidate lowers the loss by more than `sigmas` standard
-  // errors and by more than `min_gain` of the simpler one's loss
-  bool richer_wins(double sigmas, double min_gain) const {
-    return pixels > 1 && gain > sigmas * standard_error && gain > min_gain * simpler;
-  }
-};
-
-inline PairedComparison compare_paired(const std::vector<double>& simpler, const std::vector<double>& richer) {
-  PairedComparison c;
-  const std::size_t n = std::min(simpler.size(), richer.size());
-  double sum_d = 0.0, sum_d2 = 0.0;
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!std::isfinite(simpler[i]) || !std::isfinite(richer[i])) continue;
-    const double d = simpler[i] - richer[i];
-    c.simpler += simpler[i];
-    c.richer += richer[i];
-    sum_d += d;
-    sum_d2 += d * d;
-    ++c.pixels;
-  }
-  if (c.pixels == 0) return c;
-  const double m = double(c.pixels);
-  c.simpler /= m;
-  c.richer /= m;
-  c.gain = sum_d / m;
-  const double var = c.pixels > 1 ? std::max(0.0, (sum_d2 - m * c.gain * c.gain) / (m - 1.0)) : 0.0;
-  c.standard_error = std::sqrt(var / m);
-  return c;
 }
 
 // σ (RGB) of an absorption at a point: homogeneous raw (3 values) or a grid

@@ -1,14 +1,13 @@
 // The absorption model chosen from the photographs (pipeline/absorption_model.hpp
-// and Stage2's automatic choice): the paired comparison, the resampling of a
-// field onto a finer grid, and the decision on three glass spheres, clear,
-// uniformly tinted and banded, each of which must get its own model.
+// and Stage2's automatic choice): the resampling of a field onto a finer
+// grid, and the decision on three glass spheres, clear, uniformly tinted and
+// banded, each of which must get its own model.
 #include "pipeline/absorption_model.hpp"
 
 #include <doctest/doctest.h>
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <string>
 #include <vector>
 
@@ -21,28 +20,6 @@ namespace ds = difftrans::scene;
 namespace pipeline = difftrans::pipeline;
 using difftrans::Vec3f;
 using difftrans::Vec3i;
-
-TEST_CASE("paired comparison: the mean difference, its standard error, pixels left out in either") {
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  // differences 1, 3, (left out), 2, (left out): mean 2, sd 1, se 1/sqrt(3)
-  const std::vector<double> simpler{11.0, 13.0, nan, 12.0, 5.0};
-  const std::vector<double> richer{10.0, 10.0, 4.0, 10.0, nan};
-  const pipeline::PairedComparison c = pipeline::compare_paired(simpler, richer);
-  CHECK(c.pixels == 3);
-  CHECK(c.simpler == doctest::Approx(12.0));
-  CHECK(c.richer == doctest::Approx(10.0));
-  CHECK(c.gain == doctest::Approx(2.0));
-  CHECK(c.standard_error == doctest::Approx(1.0 / std::sqrt(3.0)));
-  CHECK(c.richer_wins(2.0, 0.1));        // 2 > 2 · 0.577 and 2 > 0.1 · 12
-  CHECK_FALSE(c.richer_wins(4.0, 0.1));  // not 4 standard errors
-  CHECK_FALSE(c.richer_wins(2.0, 0.2));  // not 20 % of the loss
-  // the richer one worse: never kept
-  const pipeline::PairedComparison w = pipeline::compare_paired(richer, simpler);
-  CHECK(w.gain == doctest::Approx(-2.0));
-  CHECK_FALSE(w.richer_wins(0.0, 0.0));
-  // one pixel: no standard error, no decision for the richer
-  CHECK_FALSE(pipeline::compare_paired({2.0}, {1.0}).richer_wins(0.0, 0.0));
-}
 
 TEST_CASE("resampling an absorption onto a finer grid keeps its field") {
   const Vec3f lo(-0.5f, -0.4f, -0.3f), hi(0.5f, 0.6f, 0.3f);

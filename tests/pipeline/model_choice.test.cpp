@@ -1,0 +1,33 @@
+// The paired comparison of two candidate models' held-out errors
+// (pipeline/model_choice.hpp).
+#include "pipeline/model_choice.hpp"
+
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <limits>
+#include <vector>
+
+namespace pipeline = difftrans::pipeline;
+
+TEST_CASE("paired comparison: the mean difference, its standard error, pixels left out in either") {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  // differences 1, 3, (left out), 2, (left out): mean 2, sd 1, se 1/sqrt(3)
+  const std::vector<double> simpler{11.0, 13.0, nan, 12.0, 5.0};
+  const std::vector<double> richer{10.0, 10.0, 4.0, 10.0, nan};
+  const pipeline::PairedComparison c = pipeline::compare_paired(simpler, richer);
+  CHECK(c.pixels == 3);
+  CHECK(c.simpler == doctest::Approx(12.0));
+  CHECK(c.richer == doctest::Approx(10.0));
+  CHECK(c.gain == doctest::Approx(2.0));
+  CHECK(c.standard_error == doctest::Approx(1.0 / std::sqrt(3.0)));
+  CHECK(c.richer_wins(2.0, 0.1));        // 2 > 2 · 0.577 and 2 > 0.1 · 12
+  CHECK_FALSE(c.richer_wins(4.0, 0.1));  // not 4 standard errors
+  CHECK_FALSE(c.richer_wins(2.0, 0.2));  // not 20 % of the loss
+  // the richer one worse: never kept
+  const pipeline::PairedComparison w = pipeline::compare_paired(richer, simpler);
+  CHECK(w.gain == doctest::Approx(-2.0));
+  CHECK_FALSE(w.richer_wins(0.0, 0.0));
+  // one pixel: no standard error, no decision for the richer
+  CHECK_FALSE(pipeline::compare_paired({2.0}, {1.0}).richer_wins(0.0, 0.0));
+}
