@@ -41,9 +41,10 @@ step "evaluate: the relit images against the scene's test images"
 "$dt" evaluate --pred-images "$out/relight/images" --scene "$out/scene" --out "$out/relight/evaluate.json" |
   grep -E '^  "(psnr|psnr_mask|ssim|count)"'
 
-step "reconstruct: the environment (distant map fitted to the out-of-mask pixels), stage-1 geometry
-   (FlexiCubes 32³ from the masks, 200 + 200 iterations) and stage 2 (IoR and absorption through the
-   tracer, 200 iterations): a short run; the defaults are 64³, 1000 + 1000 and 1000"
+step "reconstruct: the environment (distant map or near field, chosen from the out-of-mask pixels),
+   stage-1 geometry (FlexiCubes 32³ from the masks, 200 + 200 iterations) and stage 2 (the absorption
+   model chosen from held-out views, then IoR and absorption through the tracer, 200 iterations): a
+   short run; the defaults are 64³, 1000 + 1000 and 1200"
 rm -f "$out/reconstruct/reconstruct.json"
 "$dt" reconstruct "$out/scene" --out "$out/reconstruct" --stages environment,geometry,materials --grid 32 \
   --iterations 200 --refine-iterations 200 --restart --materials-iterations 200 --materials-freeze 60 |

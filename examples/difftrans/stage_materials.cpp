@@ -1,9 +1,11 @@
 // difftrans reconstruct --stages materials: stage 2. The stage-1 mesh
 // (DIR/mesh_stage1.obj) and the recovered environment (DIR/envmap.hdr, or the
 // near field DIR/radiance_field.json) are read back; the IoR and an
-// absorption grid (and, with --materials-geometry, the vertices) are fitted to
-// the photographs' object pixels through the recursive tracer. Writes
-// material_stage2.json (+ absorption_stage2.json), mesh_stage2.obj, the loss
+// absorption (none, homogeneous or a grid, chosen from held-out views unless
+// --absorption names one; and, with --materials-geometry, the vertices) are
+// fitted to the photographs' object pixels through the recursive tracer.
+// Writes material_stage2.json (+ absorption_stage2.json for a grid),
+// mesh_stage2.obj, the loss
 // curve, renders of the test views with metrics and a contact sheet, and the
 // IoR / CD / F1 errors when the scene has ground truth.
 #include "long_run.hpp"

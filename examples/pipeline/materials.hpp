@@ -1,6 +1,8 @@
 // Stage 2 of DiffTrans: the stage-1 mesh, the index of refraction and a 3D
-// absorption field, optimized together through the recursive differentiable
-// tracer against the photographs (the pixels inside the masks). Geometry is
+// absorption field (none, homogeneous or a grid: Stage2Config::
+// absorption_model, chosen from held-out views by default), optimized
+// together through the recursive differentiable tracer against the
+// photographs (the pixels inside the masks). Geometry is
 // frozen for the first iterations (materials and IoR only), then vertices
 // move through the large-steps parameterization, with a periodic mask L1 +
 // edge-normal term keeping the silhouettes.
