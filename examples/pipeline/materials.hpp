@@ -1021,28 +1021,35 @@ class Stage2 {
     std::vector<double> g;
     for (int b = 0; b < batches; ++b) {
       std::mt19937_64 rng(config_.seed * 0x94D049BB133111EBull + 0x5E771Eu + std::uint64_t(b));
-      std::vector<BatchRay> rays;
-      std::vector<Vec3f> target;
-      draw_batch(rng, rays, target);
-      const float glint = glint_level(target, config_.glint_factor);
-      const float inv_n = 1.0f / float(std::max<std::size_t>(1, target.size()));
-      const int k = std::max(1, config_.pixel_samples);
-      SceneGradient grad(scene_);
-      PassOptions po;
-      po.trace = config_.trace;
-      ray_group_gradient<float>(
-          scene_, rays, k,
-          [&](std::int64_t i, const Vec3f* L, Vec3f* dL) {
-            return pixel_loss(L, k, target[std::size_t(i)], inv_n, dL, glint).value;
-          },
-          grad, po, false, 0.0f, config_.clip_ior * inv_n);
-      g.push_back(double(grad.ior[0]));
+      g.push_back(double(batch_gradient(rng).ior[0]));
     }
     double mean = 0.0, var = 0.0;
     for (double x : g) mean += x / double(g.size());
     for (double x : g) var += (x - mean) * (x - mean) / double(std::max<std::size_t>(1, g.size() - 1));
     if (per_batch) *per_batch = g;
     return {scene_.ior, mean, std::sqrt(var / double(g.size()))};
+  }
+
+  // The gradient of the pixel loss over one batch drawn from `rng`
+  // (draw_batch), each ray's IoR derivative clipped (clip_ior), no vertex
+  // clip: what the IoR's settling and the absorption candidates' fits step on.
+  SceneGradient batch_gradient(std::mt19937_64& rng) {
+    std::vector<BatchRay> rays;
+    std::vector<Vec3f> target;
+    draw_batch(rng, rays, target);
+    const float glint = glint_level(target, config_.glint_factor);
+    const float inv_n = 1.0f / float(std::max<std::size_t>(1, target.size()));
+    const int k = std::max(1, config_.pixel_samples);
+    SceneGradient grad(scene_);
+    PassOptions po;
+    po.trace = config_.trace;
+    ray_group_gradient<float>(
+        scene_, rays, k,
+        [&](std::int64_t i, const Vec3f* L, Vec3f* dL) {
+          return pixel_loss(L, k, target[std::size_t(i)], inv_n, dL, glint).value;
+        },
+        grad, po, false, 0.0f, config_.clip_ior * inv_n);
+    return grad;
   }
 
   // The factor of the material rates at iteration it: 1, then a cosine from
@@ -1233,25 +1240,11 @@ class Stage2 {
     scene_.differentiate[param_ior] = ior_moves && config_.optimize_ior;
     scene_.differentiate[param_absorption] = true;
     optim::Adam ior_adam(1), absorption_adam(scene_.absorption_raw.size());
-    const int k = std::max(1, config_.pixel_samples);
     const bool grid = scene_.absorption_kind == scene::AbsorptionKind::grid;
     for (int i = 0; i < config_.selection_iterations; ++i) {
       std::mt19937_64 rng(config_.seed * 0xBF58476D1CE4E5B9ull + 0xC401CEull * std::uint64_t(level + 1) +
                           std::uint64_t(i));
-      std::vector<BatchRay> rays;
-      std::vector<Vec3f> target;
-      draw_batch(rng, rays, target);
-      const float glint = glint_level(target, config_.glint_factor);
-      const float inv_n = 1.0f / float(std::max<std::size_t>(1, target.size()));
-      SceneGradient grad(scene_);
-      PassOptions po;
-      po.trace = config_.trace;
-      ray_group_gradient<float>(
-          scene_, rays, k,
-          [&](std::int64_t r, const Vec3f* L, Vec3f* dL) {
-            return pixel_loss(L, k, target[std::size_t(r)], inv_n, dL, glint).value;
-          },
-          grad, po, false, 0.0f, config_.clip_ior * inv_n);
+      SceneGradient grad = batch_gradient(rng);
       if (grid)
         losses::absorption_regularizers(scene_.absorption_raw, scene_.absorption_res, config_.weights.smoothness,
                                         config_.weights.volume, grad.absorption);
