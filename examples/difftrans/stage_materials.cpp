@@ -133,6 +133,7 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
         progress("materials: choosing the absorption model on " + std::to_string(cfg.selection_batches) +
                  " held-out batches (every " + std::to_string(cfg.selection_holdout) + "th view; " +
                  std::to_string(cfg.selection_iterations) + " iterations per candidate)");
+      const bool choosing_depth = stage.iteration() == 0 && cfg.choose_depth && stage.depth_choice().is_null();
       const pipeline::Stage2Stats st = stage.step();
       if (choosing) {
         const io::Json& c = stage.absorption_choice();
@@ -142,6 +143,14 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
           warn("materials: the finest absorption grid (" + std::to_string(cfg.absorption_res) +
                "^3) still lowers the held-out loss measurably: the absorption may vary more sharply than it resolves "
                "(raise --absorption-res)");
+      }
+      if (choosing_depth && !stage.depth_choice().is_null()) {
+        const io::Json& d = stage.depth_choice();
+        progress("materials: training depth " + std::to_string(d.value("depth", 0)) + " of " +
+                 std::to_string(cfg.trace.max_depth) + " (the shallowest whose mean pixel is within its noise of the "
+                 "deepest's over " + std::to_string(d.value("pixels", 0)) + " pixels), pruning at " +
+                 fixed(d.value("prune", 0.0), 3) + " (least time x variance), in " +
+                 duration_text(d.value("seconds", 0.0)));
       }
       meter.update(st.iteration + 1, "colour " + fixed(st.color, 5) + " IoR " + fixed(st.ior, 4) + " mean sigma (" +
                                          fixed(st.mean_sigma.x, 3) + ", " + fixed(st.mean_sigma.y, 3) + ", " +
@@ -207,6 +216,7 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
     if (s.absorption_kind == scene::AbsorptionKind::grid) model["fitted_res"] = s.absorption_res.x;
     j["absorption_model"] = model;
   }
+  if (!stage.depth_choice().is_null()) j["depth_choice"] = stage.depth_choice();
   const Vec3f s0 = stage.searched_sigma();
   if (std::isfinite(s0.x)) {  // Stage2Config::sigma_search's choice and its evidence
     j["sigma_start"] = {s0.x, s0.y, s0.z};

@@ -403,6 +403,8 @@ TEST_CASE("stage 2 checkpoint: a resumed fit repeats the uninterrupted one, and 
     cfg.selection_iterations = 3;
     cfg.selection_batches = 1;
     cfg.selection_holdout = 3;
+    cfg.choose_depth = true;  // and the training depth: it goes through the file too
+    cfg.depth_batches = 1;
     grid = false;
   }
   const auto fresh = [] { return glass_sphere(1.3f, Vec3f(0.0f)); };
@@ -439,6 +441,9 @@ TEST_CASE("stage 2 checkpoint: a resumed fit repeats the uninterrupted one, and 
       REQUIRE(second.absorption_choice().is_object());
       CHECK(second.absorption_choice()["summary"] == straight.absorption_choice()["summary"]);
       CHECK(second.absorption_choice()["candidates"].size() == straight.absorption_choice()["candidates"].size());
+      REQUIRE(second.depth_choice().is_object());
+      CHECK(second.training_trace().max_depth == straight.training_trace().max_depth);
+      CHECK(second.training_trace().prune_throughput == straight.training_trace().prune_throughput);
     }
   }
   if (grid) {  // a checkpoint of another grid size is refused
@@ -449,4 +454,42 @@ TEST_CASE("stage 2 checkpoint: a resumed fit repeats the uninterrupted one, and 
     CHECK_FALSE(third.load(file, "run 1"));
   }
   std::filesystem::remove(file);
+}
+
+TEST_CASE("stage 2 chooses the training depth where the image stops changing beyond its noise") {
+  // The same sphere clear and strongly absorbing (σ 6 per unit length): the
+  // light beyond a few interactions is lost inside the absorbing one, so its
+  // depth must come out shallower, both within the bounds; the pruning
+  // threshold is one of the candidates.
+  const auto chosen = [](const Vec3f& sigma) {
+    const dr::HostScene truth = glass_sphere(1.5f, sigma);
+    const Photos photos = photograph(truth, 8, 32);
+    dr::HostScene s = glass_sphere(1.5f, sigma);
+    pipeline::Stage2Config cfg;
+    cfg.absorption_model = sigma == Vec3f(0.0f) ? pipeline::AbsorptionModel::none : pipeline::AbsorptionModel::homogeneous;
+    cfg.sigma_search.clear();
+    cfg.iterations = 1;
+    cfg.rays_per_iteration = 4096;
+    cfg.choose_depth = true;
+    cfg.depth_min = 2;
+    cfg.trace.max_depth = 12;
+    cfg.depth_batches = 2;
+    cfg.ior_settle_batches = 0;
+    pipeline::Stage2 st(s, views_of(photos), {}, cfg);
+    if (sigma != Vec3f(0.0f)) s.set_homogeneous_absorption(sigma);  // the material known: the depth is the question
+    st.step();
+    const auto& d = st.depth_choice();
+    REQUIRE(d.is_object());
+    MESSAGE("sigma " << sigma.x << ": depth " << d["depth"] << ", prune " << d["prune"] << ", depths tried "
+                     << d["depths"].size());
+    CHECK(st.training_trace().max_depth == d["depth"].get<int>());
+    CHECK(st.training_trace().tree_depth <= st.training_trace().max_depth);
+    CHECK(d["depth"].get<int>() >= 2);
+    CHECK(d["depth"].get<int>() <= 12);
+    const float prune = st.training_trace().prune_throughput;
+    CHECK(std::find(cfg.prune_candidates.begin(), cfg.prune_candidates.end(), prune) != cfg.prune_candidates.end());
+    return d["depth"].get<int>();
+  };
+  const int clear = chosen(Vec3f(0.0f)), absorbing = chosen(Vec3f(6.0f));
+  CHECK(absorbing < clear);
 }
