@@ -264,16 +264,15 @@ std::pair<std::string, io::Json> choose_environment(const io::Scene& scene, cons
   pipeline::BackgroundOptions bo;
   bo.margin = opt.margin;
   const auto obs = pipeline::background_observations(train, bo);
-  std::vector<double> probe;
-  for (const io::Frame& f : held.frames) pipeline::background_errors_with(f, [](const Vec3f&, const Vec3f&) { return Vec3f(0.0f); }, opt.margin, probe);
-  if (obs.empty() || probe.size() < 2) {
+  const std::size_t held_pixels = pipeline::background_observations(held, bo).size();
+  if (obs.empty() || held_pixels < 2) {
     r["decision"] = fallback;
     r["reason"] = "too few views or background pixels to hold some out";
     return {fallback, r};
   }
   progress("environment: choosing the model: a distant map and a near field fitted without every " +
            std::to_string(every) + "th view, compared on the " + std::to_string(held.frames.size()) +
-           " held out (" + std::to_string(probe.size()) + " background pixels)");
+           " held out (" + std::to_string(held_pixels) + " background pixels)");
   // distant
   auto t = clock_type::now();
   const scene::EnvFit fit = scene::fit_environment(obs, distant_fit_options(scene, opt));
