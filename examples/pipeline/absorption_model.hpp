@@ -17,13 +17,12 @@
 
 #include <algorithm>
 #include <array>
-#include <cmath>
 #include <cstddef>
 #include <string>
 #include <vector>
 
 #include "difftrans/ad/glm.hpp"
-#include "difftrans/ad/math.hpp"
+#include "difftrans/ad/params.hpp"
 #include "difftrans/scene/absorption.hpp"
 #include "pipeline/model_choice.hpp"
 
@@ -36,29 +35,16 @@ inline const std::array<const char*, 4>& enum_names(AbsorptionModel) {
 }
 
 // σ (RGB) of an absorption at a point: homogeneous raw (3 values) or a grid
-// of res³ vertices over [lo, hi], trilinear in σ (as the tracer reads it;
-// points outside the box are clamped to it); none: 0.
+// of res³ vertices over [lo, hi], read as the tracer reads it
+// (scene::sigma_at), the point clamped to the box; none: 0.
 inline Vec3f absorption_sigma_at(scene::AbsorptionKind kind, const std::vector<float>& raw, const Vec3i& res,
                                  const Vec3f& lo, const Vec3f& hi, const Vec3f& p) {
   if (kind == scene::AbsorptionKind::none || raw.empty()) return Vec3f(0.0f);
-  if (kind == scene::AbsorptionKind::homogeneous)
-    return Vec3f(ad::softplus(raw[0]), ad::softplus(raw[1]), ad::softplus(raw[2]));
-  int cell[3];
-  float t[3];
-  for (int a = 0; a < 3; ++a) {
-    const float g = std::clamp((p[a] - lo[a]) / (hi[a] - lo[a]), 0.0f, 1.0f) * float(res[a] - 1);
-    cell[a] = std::min(int(g), res[a] - 2);
-    t[a] = g - float(cell[a]);
-  }
-  Vec3f s(0.0f);
-  for (int c = 0; c < 8; ++c) {
-    const int i = cell[0] + (c & 1), j = cell[1] + ((c >> 1) & 1), k = cell[2] + ((c >> 2) & 1);
-    const float w = ((c & 1) ? t[0] : 1.0f - t[0]) * (((c >> 1) & 1) ? t[1] : 1.0f - t[1]) *
-                    (((c >> 2) & 1) ? t[2] : 1.0f - t[2]);
-    for (int ch = 0; ch < 3; ++ch)
-      s[ch] += w * ad::softplus(raw[std::size_t(scene::grid_index(res, i, j, k, ch))]);
-  }
-  return s;
+  const scene::AbsorptionField field = kind == scene::AbsorptionKind::homogeneous
+                                           ? scene::homogeneous_absorption(raw.data())
+                                           : scene::grid_absorption(raw.data(), res, lo, hi);
+  ad::ParamReader<float> reader(nullptr);
+  return scene::sigma_at(reader, field, glm::clamp(p, lo, hi));
 }
 
 // The raw parameters of a grid of `res` vertices over [lo, hi] whose
