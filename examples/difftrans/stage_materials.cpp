@@ -149,7 +149,7 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
         progress("materials: training depth " + std::to_string(d.value("depth", 0)) + " of " +
                  std::to_string(cfg.trace.max_depth) + " (the shallowest whose mean pixel is within its noise of the "
                  "deepest's over " + std::to_string(d.value("pixels", 0)) + " pixels), pruning at " +
-                 fixed(d.value("prune", 0.0), 3) + " (least time x variance), in " +
+                 fixed(d.value("prune", 0.0), 3) + " (least work x variance), in " +
                  duration_text(d.value("seconds", 0.0)));
       }
       meter.update(st.iteration + 1, "colour " + fixed(st.color, 5) + " IoR " + fixed(st.ior, 4) + " mean sigma (" +

@@ -235,8 +235,9 @@ struct Stage2Config {
   // it), and the shallowest depth whose batch-mean pixel differs from the
   // deepest's by less than that mean's standard error (the samples' spread)
   // in every channel is kept; then each threshold of prune_candidates is
-  // timed with its spread (Russian roulette keeps every threshold unbiased),
-  // and the one with the least time × variance kept.
+  // traced with its spread (Russian roulette keeps every threshold unbiased),
+  // and the one with the least work (segments traced) × variance kept: work,
+  // not seconds, so that a seed gives the same choice on any machine.
   bool choose_depth = false;
   int depth_min = 4;
   int depth_batches = 4;
@@ -404,7 +405,7 @@ struct Stage2Config {
     v(Field{"training_samples", "", "samples of the absorption integral per segment"}, c.trace.integration.samples);
     v(Field{"choose_depth", "--materials-depth-auto",
             "choose the training depth (--materials-depth-min to --materials-depth) where the image stops changing "
-            "beyond its noise, and the pruning threshold with the least time x variance, from the first batches"},
+            "beyond its noise, and the pruning threshold with the least work x variance, from the first batches"},
       c.choose_depth);
     v(Field{"depth_min", "--materials-depth-min", "shallowest training depth --materials-depth-auto may choose", 1, 16},
       c.depth_min);
@@ -1311,12 +1312,15 @@ class Stage2 {
       std::vector<Vec3d> mean;  // per pixel used
       Vec3d variance{0.0};      // Σ over pixels of the variance of the pixel's mean (per channel)
       double seconds = 0.0;
+      std::int64_t segments = 0;  // the work: the same on any machine, so the choice follows the seed
     };
     const auto render = [&](const TraceSettings& ts) {
       Render r;
       const auto t = clock::now();
+      std::vector<std::int32_t> segments;
       for (std::size_t b = 0; b < rays.size(); ++b) {
-        const std::vector<Vec3f> L = trace_batch(scene_, rays[b], ts);
+        const std::vector<Vec3f> L = trace_batch(scene_, rays[b], ts, &segments);
+        for (std::int32_t n : segments) r.segments += n;
         for (std::size_t p = 0; p < target[b].size(); ++p) {
           if (!used[b][p]) continue;
           Vec3d m(0.0), m2(0.0);
@@ -1352,7 +1356,7 @@ class Stage2 {
         break;
       }
     }
-    // pruning at the chosen depth: time × variance of the batch mean
+    // pruning at the chosen depth: work × variance of the batch mean
     ts = config_.trace;
     ts.max_depth = chosen;
     ts.tree_depth = std::min(config_.trace.tree_depth, chosen);
@@ -1362,9 +1366,9 @@ class Stage2 {
     for (float p : config_.prune_candidates) {
       ts.prune_throughput = p;
       const Render r = render(ts);
-      const double cost = r.seconds * (r.variance.x + r.variance.y + r.variance.z);
-      prunes.push_back({{"prune", p}, {"seconds", r.seconds}, {"variance", r.variance.x + r.variance.y + r.variance.z},
-                        {"cost", cost}});
+      const double cost = double(r.segments) * (r.variance.x + r.variance.y + r.variance.z);
+      prunes.push_back({{"prune", p}, {"seconds", r.seconds}, {"segments", r.segments},
+                        {"variance", r.variance.x + r.variance.y + r.variance.z}, {"cost", cost}});
       if (cost < best) best = cost, prune = p;
     }
     if (!config_.trace.roulette) prune = config_.trace.prune_throughput;  // without roulette pruning is a bias

@@ -156,26 +156,32 @@ RayBatchResult ray_group_gradient(const HostScene& s, const std::vector<BatchRay
 
 // The radiance along every ray (plain float, no tape), on the thread pool,
 // with the given escape (what a ray leaving the object sees; tracer.hpp).
+// With `segments`, each ray's count of traced segments (TraceStats) is
+// written there: the work, the same on any machine.
 template <class Escape>
 std::vector<Vec3f> trace_batch(const HostScene& s, const std::vector<BatchRay>& rays, const TraceSettings& settings,
-                               const Escape& escape) {
+                               const Escape& escape, std::vector<std::int32_t>* segments = nullptr) {
   std::vector<Vec3f> out(rays.size(), Vec3f(0.0f));
+  if (segments) segments->assign(rays.size(), 0);
   const SceneView view = s.view(false);
   const ad::ParamSet params = s.params();
   ThreadPool::global().parallel_for(std::int64_t(rays.size()), 64, [&](std::int64_t b, std::int64_t e, int) {
     ad::ParamReader<float> reader(&params);
     for (std::int64_t i = b; i < e; ++i) {
       const BatchRay& r = rays[std::size_t(i)];
-      out[std::size_t(i)] = trace<float>(view, s.accel(), reader, r.origin, r.direction, settings, nullptr, escape);
+      TraceStats stats;
+      out[std::size_t(i)] = trace<float>(view, s.accel(), reader, r.origin, r.direction, settings, &stats, escape);
+      if (segments) (*segments)[std::size_t(i)] = stats.segments;
     }
   });
   return out;
 }
 
 // The same with the scene's own environment (its map or near field).
-inline std::vector<Vec3f> trace_batch(const HostScene& s, const std::vector<BatchRay>& rays, const TraceSettings& settings) {
+inline std::vector<Vec3f> trace_batch(const HostScene& s, const std::vector<BatchRay>& rays, const TraceSettings& settings,
+                                      std::vector<std::int32_t>* segments = nullptr) {
   std::vector<Vec3f> out;
-  s.with_escape([&](const auto& escape) { out = trace_batch(s, rays, settings, escape); });
+  s.with_escape([&](const auto& escape) { out = trace_batch(s, rays, settings, escape, segments); });
   return out;
 }
 
