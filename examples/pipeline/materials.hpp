@@ -288,6 +288,11 @@ struct Stage2Config {
   // this (ray_batch_gradient's clip_geometry, given clip_geometry / rays as
   // the loss is a mean over the rays); 0: off. See the note on the class.
   float clip_geometry = 1.0f;
+  // While the vertices move, their gradient flows only through the main
+  // refraction path of each camera ray, its first geometry_refractions
+  // interactions (TraceSettings::gradient_refractions; 2: entry and exit, as
+  // DRT does); the colour is still the whole tree's. 0: every branch.
+  int geometry_refractions = 0;
   // Per-ray clip of the IoR derivative (ray_batch_gradient's clip_ior, as
   // clip_ior / rays); 0: off. Near the critical angle a ray's IoR derivative
   // has a heavy tail: unclipped, a batch's IoR gradient on spot-clear (true
@@ -423,6 +428,10 @@ struct Stage2Config {
       c.fit_unseen_sky);
     v(Field{"lr_sky", "", "learning rate of the unseen sky's factor (its logarithm)"}, c.lr_sky);
     v(Field{"clip_geometry", "", "per-ray clip of the vertex gradient's norm (0: off)"}, c.clip_geometry);
+    v(Field{"geometry_refractions", "--materials-geometry-refractions",
+            "while the vertices move, their gradient flows through the main refraction path's first N "
+            "interactions only (2: entry and exit; 0: every branch)", 0, render::max_trace_depth},
+      c.geometry_refractions);
     v(Field{"clip_ior", "--materials-clip-ior", "per-ray clip of the IoR derivative (0: off)", 0, 1e30}, c.clip_ior);
     v(Field{"weights", "", "loss weights"}, c.weights);
     v(Field{"seed", "", "seed of the ray batches"}, c.seed);
@@ -695,6 +704,7 @@ class Stage2 {
     SceneGradient grad(scene_);
     PassOptions po;
     po.trace = config_.trace;
+    po.trace.gradient_refractions = st.geometry_moving ? config_.geometry_refractions : 0;
     const float inv_n = 1.0f / float(std::max<std::size_t>(1, target.size()));
     const Stage2Weights& w = config_.weights;
     const int k = std::max(1, config_.pixel_samples);

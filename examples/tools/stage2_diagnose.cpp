@@ -709,9 +709,9 @@ io::Json home(Setup& setup, const HomeOptions& o) {
     std::sort(lum.begin(), lum.end());
     const double t1 = lum[lum.size() / 3], t2 = lum[2 * lum.size() / 3];
 
-    std::vector<std::string> names = {"raw", "clipped", "depth_2"};
+    std::vector<std::string> names = {"raw", "clipped", "depth_2", "main_path", "main_path_clipped"};
     if (split) names.insert(names.end(), {"paths_1", "paths_2", "paths_3_4", "tir", "no_tir", "dark", "mid", "bright"});
-    std::vector<ComponentStats> comp(names.size()), comp_pre(3);
+    std::vector<ComponentStats> comp(names.size()), comp_pre(5);
     double sum_clipped_rays = 0.0;
     for (int b = 0; b < o.batches; ++b) {
       const auto& r = rays[std::size_t(b)];
@@ -743,19 +743,25 @@ io::Json home(Setup& setup, const HomeOptions& o) {
       d2.max_depth = 2;
       // the colour of the depth-4 tree, the vertex gradient through the paths of at most 2 interactions
       const std::vector<double> g12 = vertex_gradient<float>(s, r, fixed(all), d2);
-      comp[0].add(g, delta_unit);
-      comp[1].add(gc, delta_unit);
-      comp[2].add(g12, delta_unit);
-      comp_pre[0].add(preconditioned(large_steps, g), delta_unit);
-      comp_pre[1].add(preconditioned(large_steps, gc), delta_unit);
-      comp_pre[2].add(preconditioned(large_steps, g12), delta_unit);
+      // the loss of the whole tree, its vertex gradient through the main
+      // refraction path only (entry and exit: TraceSettings::gradient_refractions)
+      TraceSettings main_path = setup.trace();
+      main_path.gradient_refractions = 2;
+      const std::vector<double> gm = vertex_gradient<float>(s, r, loss, main_path);
+      const std::vector<double> gmc =
+          vertex_gradient<float>(s, r, loss, main_path, setup.config().clip_geometry * inv_n);
+      const std::vector<const std::vector<double>*> parts{&g, &gc, &g12, &gm, &gmc};
+      for (std::size_t c = 0; c < parts.size(); ++c) {
+        comp[c].add(*parts[c], delta_unit);
+        comp_pre[c].add(preconditioned(large_steps, *parts[c]), delta_unit);
+      }
       if (!split) continue;
       const std::vector<double> g1 = vertex_gradient<float>(s, r, fixed(all), d1);
       std::vector<double> g2(g.size()), g34(g.size());
       for (std::size_t k = 0; k < g.size(); ++k) g2[k] = g12[k] - g1[k], g34[k] = g[k] - g12[k];
-      comp[3].add(g1, delta_unit);
-      comp[4].add(g2, delta_unit);
-      comp[5].add(g34, delta_unit);
+      comp[5].add(g1, delta_unit);
+      comp[6].add(g2, delta_unit);
+      comp[7].add(g34, delta_unit);
       std::vector<char> tir(r.size()), dark(r.size()), mid(r.size()), bright(r.size());
       for (std::size_t i = 0; i < r.size(); ++i) {
         tir[i] = at_x[i].stats.tir > 0;
@@ -767,11 +773,11 @@ io::Json home(Setup& setup, const HomeOptions& o) {
       const std::vector<double> gt = vertex_gradient<float>(s, r, fixed(tir), setup.trace());
       std::vector<double> gnt(g.size());
       for (std::size_t k = 0; k < g.size(); ++k) gnt[k] = g[k] - gt[k];
-      comp[6].add(gt, delta_unit);
-      comp[7].add(gnt, delta_unit);
-      comp[8].add(vertex_gradient<float>(s, r, fixed(dark), setup.trace()), delta_unit);
-      comp[9].add(vertex_gradient<float>(s, r, fixed(mid), setup.trace()), delta_unit);
-      comp[10].add(vertex_gradient<float>(s, r, fixed(bright), setup.trace()), delta_unit);
+      comp[8].add(gt, delta_unit);
+      comp[9].add(gnt, delta_unit);
+      comp[10].add(vertex_gradient<float>(s, r, fixed(dark), setup.trace()), delta_unit);
+      comp[11].add(vertex_gradient<float>(s, r, fixed(mid), setup.trace()), delta_unit);
+      comp[12].add(vertex_gradient<float>(s, r, fixed(bright), setup.trace()), delta_unit);
     }
     io::Json bj;
     bj["blur_texels"] = blur;
@@ -780,7 +786,7 @@ io::Json home(Setup& setup, const HomeOptions& o) {
     for (std::size_t c = 0; c < names.size(); ++c) cj[names[c]] = comp[c].json(delta_unit);
     cj["raw_preconditioned"] = comp_pre[0].json(delta_unit);
     cj["clipped_preconditioned"] = comp_pre[1].json(delta_unit);
-    cj["depth_2_preconditioned"] = comp_pre[2].json(delta_unit);
+    for (std::size_t c = 2; c < comp_pre.size(); ++c) cj[names[c] + "_preconditioned"] = comp_pre[c].json(delta_unit);
     bj["gradient"] = cj;
     if (split) bj["brightness_tertiles"] = {t1, t2};
     // the deterministic loss along x + tΔ over loss_batches fixed batches, and at the true mesh

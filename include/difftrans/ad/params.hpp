@@ -54,6 +54,7 @@ class ParamReader {
  public:
   DT_HOST_DEVICE explicit ParamReader(const ParamSet* set) : set_(set) {}
   DT_HOST_DEVICE S read(int buffer, std::int32_t index) { return S(set_->buffers[buffer].values[index]); }
+  DT_HOST_DEVICE const ParamSet* params() const { return set_; }
 
  private:
   const ParamSet* set_;
@@ -71,6 +72,7 @@ class ParamReader<Dual<T, N>> {
       if (b.tangents[l]) v.grad[l] = T(b.tangents[l][index]);
     return v;
   }
+  DT_HOST_DEVICE const ParamSet* params() const { return set_; }
 
  private:
   const ParamSet* set_;
@@ -143,6 +145,8 @@ class ParamReader<Var<T>> {
   DT_HOST_DEVICE std::int32_t size() const { return count_; }
   DT_HOST_DEVICE bool overflowed() const { return overflow_; }
   DT_HOST_DEVICE Tape<T>* tape() const { return tape_; }
+  // The buffers read (their values serve a plain reader for constant parts of a pass).
+  DT_HOST_DEVICE const ParamSet* params() const { return set_; }
 
  private:
   const ParamSet* set_;

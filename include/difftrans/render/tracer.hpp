@@ -50,6 +50,16 @@ struct TraceSettings {
   scene::AbsorptionIntegration integration;  // grid absorption: exact (samples = 0) or K samples
   scene::NormalMode normal_mode = scene::NormalMode::automatic;
   bool smooth_normals = true;       // shade with interpolated vertex normals (the paper); false: flat facets
+  // Which branches carry derivatives (AD scalars only; the radiance is the
+  // same either way). 0: every branch. k > 0: the main refraction path only —
+  // the camera ray and its refracted children through the first k
+  // interactions (2: the entry and the exit, as DRT differentiates); every
+  // other branch (a reflection, a total internal reflection, anything past
+  // the k-th interaction) is traced in plain floating point, off the tape, and
+  // adds its radiance as a constant. Stage 2 moves the vertices with k = 2:
+  // the deep and TIR paths carry most of the vertex gradient's energy and
+  // little of its direction (docs/stage2-diagnostics.md, "home").
+  int gradient_refractions = 0;
 };
 
 // What happened along one camera ray (counted on values).
@@ -156,29 +166,34 @@ DT_HOST_DEVICE FixedEscape<Radiance> fixed_escape(const Radiance& r) {
   return FixedEscape<Radiance>{r};
 }
 
-// Radiance (RGB) arriving at the camera along the ray (origin, direction).
-// Accel: anything with `accel::RayHit intersect(Vec3f o, Vec3f d, float tnear,
-// float tfar) const`. Reader: the pass's parameter reader (ad/params.hpp).
-// Escape: see above (default: the scene's distant environment).
-template <class S, class Accel, class Reader, class Escape = DistantEscape>
-DT_HOST_DEVICE Vec3<S> trace(const SceneView& scene, const Accel& accel, Reader& reader, const Vec3f& origin,
-                             const Vec3f& direction, const TraceSettings& settings, TraceStats* stats = nullptr,
-                             const Escape& escape = Escape{}) {
+namespace detail {
+
+// Whether a branch (its depth and path bits) carries derivatives under
+// TraceSettings::gradient_refractions: all branches, or the all-refracted
+// path (path = 0b1…1) up to that depth.
+DT_HOST_DEVICE inline bool carries_derivatives(const TraceSettings& settings, int depth, std::uint32_t path) {
+  return settings.gradient_refractions <= 0 ||
+         (depth <= settings.gradient_refractions && (path & (path + 1u)) == 0u);
+}
+
+// The radiance the branch `root` brings to the camera: the branch and every
+// branch it spawns, depth first (the tracer's loop). ray_hash: the camera
+// ray's (camera_ray_hash), for the drawn and roulette choices; eta: the IoR.
+template <class S, class Accel, class Reader, class Escape>
+DT_HOST_DEVICE Vec3<S> follow(const SceneView& scene, const Accel& accel, Reader& reader, const Branch<S>& root,
+                              const S& eta, std::uint64_t ray_hash, const TraceSettings& settings, TraceStats& local,
+                              const Escape& escape) {
   using T = ad::scalar_t<S>;
-  TraceStats local;
   const int max_depth = settings.max_depth < max_trace_depth ? settings.max_depth : max_trace_depth;
-  const S eta = ad::load<S>(reader, scene.ior, 0);
   const bool absorbing = scene.absorption.kind != scene::AbsorptionKind::none;
 
   Vec3<S> radiance(S(0), S(0), S(0));
-  detail::Branch<S> stack[max_trace_depth + 2];
+  Branch<S> stack[max_trace_depth + 2];
   int top = 0;
-  stack[top++] = detail::Branch<S>{lift<S>(origin), lift<S>(direction), Vec3<S>(S(1), S(1), S(1)), 0, 1u};
-  const std::uint64_t ray_hash =
-      settings.tree_depth < max_depth || settings.roulette ? detail::camera_ray_hash(origin, direction) : 0u;
+  stack[top++] = root;
 
   while (top > 0) {
-    const detail::Branch<S> b = stack[--top];
+    const Branch<S> b = stack[--top];
     const Vec3f o = value_of(b.origin), d = value_of(b.direction);
     ++local.segments;
     const auto h = accel.intersect(o, d, 0.0f, 3.4e38f);
@@ -211,7 +226,7 @@ DT_HOST_DEVICE Vec3<S> trace(const SceneView& scene, const Accel& accel, Reader&
 
     if (b.depth + 1 > max_depth) {
       ++local.depth_cut;
-      local.cut_weight += detail::mean_component(weight);
+      local.cut_weight += mean_component(weight);
       continue;
     }
     const optics::InterfaceEvent<S> ev = optics::interface_event(wi, n, eta);
@@ -225,7 +240,7 @@ DT_HOST_DEVICE Vec3<S> trace(const SceneView& scene, const Accel& accel, Reader&
     T choice = T(1);  // the probability of the child taken, beyond the tree
     if (b.depth >= settings.tree_depth && reflects && refracts) {
       const T r = value_of(ev.R), tt = value_of(ev.T);
-      const bool r_first = T(detail::branch_random(ray_hash, b.path, 0u)) * (r + tt) < r;
+      const bool r_first = T(branch_random(ray_hash, b.path, 0u)) * (r + tt) < r;
       take_r = r_first;
       take_t = !r_first;
       choice = (r_first ? r : tt) / (r + tt);
@@ -234,21 +249,52 @@ DT_HOST_DEVICE Vec3<S> trace(const SceneView& scene, const Accel& accel, Reader&
     for (int child = 0; child < 2; ++child) {  // the reflection is pushed first, the refraction traced first
       if (!(child == 0 ? take_r : take_t)) continue;
       Vec3<S> w = chosen * (child == 0 ? ev.R : ev.T);
-      const T level = detail::max_component(w);
+      const T level = max_component(w);
       if (!(level >= T(settings.prune_throughput))) {
         const T survive = level / T(settings.prune_throughput);
-        if (!settings.roulette || !(T(detail::branch_random(ray_hash, b.path, 1u + std::uint32_t(child))) < survive)) {
+        if (!settings.roulette || !(T(branch_random(ray_hash, b.path, 1u + std::uint32_t(child))) < survive)) {
           ++local.pruned;
-          local.cut_weight += detail::mean_component(w);
+          local.cut_weight += mean_component(w);
           continue;
         }
         w = w * S(T(1) / survive);
       }
       const float side = child == 0 ? incoming_side : -incoming_side;
-      stack[top++] = detail::Branch<S>{detail::offset_origin(p, ng, side), child == 0 ? ev.wr : ev.wt, w, b.depth + 1,
-                                       (b.path << 1) | std::uint32_t(child)};
+      const Branch<S> next{offset_origin(p, ng, side), child == 0 ? ev.wr : ev.wt, w, b.depth + 1,
+                           (b.path << 1) | std::uint32_t(child)};
+      if constexpr (ad::is_ad_v<S>) {
+        if (!carries_derivatives(settings, next.depth, next.path)) {
+          // a constant: its whole subtree in plain floating point, off the tape
+          ad::ParamReader<T> values(reader.params());
+          const Branch<T> plain{value_of(next.origin), value_of(next.direction), value_of(next.weight), next.depth,
+                                next.path};
+          radiance += lift<S>(follow<T>(scene, accel, values, plain, value_of(eta), ray_hash, settings, local, escape));
+          continue;
+        }
+      }
+      stack[top++] = next;
     }
   }
+  return radiance;
+}
+
+}  // namespace detail
+
+// Radiance (RGB) arriving at the camera along the ray (origin, direction).
+// Accel: anything with `accel::RayHit intersect(Vec3f o, Vec3f d, float tnear,
+// float tfar) const`. Reader: the pass's parameter reader (ad/params.hpp).
+// Escape: see above (default: the scene's distant environment).
+template <class S, class Accel, class Reader, class Escape = DistantEscape>
+DT_HOST_DEVICE Vec3<S> trace(const SceneView& scene, const Accel& accel, Reader& reader, const Vec3f& origin,
+                             const Vec3f& direction, const TraceSettings& settings, TraceStats* stats = nullptr,
+                             const Escape& escape = Escape{}) {
+  TraceStats local;
+  const int max_depth = settings.max_depth < max_trace_depth ? settings.max_depth : max_trace_depth;
+  const S eta = ad::load<S>(reader, scene.ior, 0);
+  const std::uint64_t ray_hash =
+      settings.tree_depth < max_depth || settings.roulette ? detail::camera_ray_hash(origin, direction) : 0u;
+  const detail::Branch<S> root{lift<S>(origin), lift<S>(direction), Vec3<S>(S(1), S(1), S(1)), 0, 1u};
+  const Vec3<S> radiance = detail::follow<S>(scene, accel, reader, root, eta, ray_hash, settings, local, escape);
   if (stats) stats->add(local);
   return radiance;
 }
