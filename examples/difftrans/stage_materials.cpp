@@ -28,6 +28,7 @@
 #include "difftrans/metrics/absorption.hpp"
 #include "difftrans/metrics/chamfer.hpp"
 #include "difftrans/metrics/ior.hpp"
+#include "difftrans/metrics/mesh_quality.hpp"
 #include "config_options.hpp"
 #include "pipeline/environment.hpp"
 #include "pipeline/materials.hpp"
@@ -37,6 +38,15 @@ namespace difftrans::cli {
 // Lattice points per axis over the true mesh's box for the absorption error
 // (docs/metrics.md): about 48³ · (the object's share of its box) points.
 constexpr int absorption_error_lattice = 48;
+
+io::Json mesh_quality_json(const metrics::MeshQuality& q) {
+  return {{"mean_dihedral_degrees", q.mean_dihedral_degrees},
+          {"max_dihedral_degrees", q.max_dihedral_degrees},
+          {"self_intersections", q.self_intersections},
+          {"genus", q.genus},
+          {"components", q.components},
+          {"closed", q.closed}};
+}
 
 void add_materials_options(CLI::App* cmd, pipeline::Stage2Config& config) {
   add_config_options(cmd, config, "Materials: ");
@@ -55,6 +65,7 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
   render::HostScene s = render::make_host_scene(mesh, io::Material{}, mesh_path.filename().string());
   io::Json j;
   j["mesh_in"] = mesh_path.string();
+  const metrics::MeshQuality quality_in = metrics::mesh_quality(s.mesh.positions, s.mesh.triangles);
   // what the fit starts from, to tell a checkpoint of this run from another's
   std::string inputs = "mesh " + fingerprint(mesh.positions) + fingerprint(mesh.triangles);
   // the environment recovered by the environment stage
@@ -263,6 +274,16 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
     fs::remove(out / "absorption_stage2.json", ignored);
   }
   io::write_mesh(out / "mesh_stage2.obj", to_io_mesh(s.mesh.positions, s.mesh.triangles));
+  if (cfg.optimize_positions) {  // the surface before and after: speckle, folds, topology
+    const metrics::MeshQuality q = metrics::mesh_quality(s.mesh.positions, s.mesh.triangles);
+    j["mesh_quality"] = {{"stage1", mesh_quality_json(quality_in)}, {"stage2", mesh_quality_json(q)}};
+    progress("materials: mesh mean dihedral angle " + fixed(quality_in.mean_dihedral_degrees, 2) + " -> " +
+             fixed(q.mean_dihedral_degrees, 2) + " degrees, self-intersecting triangle pairs " +
+             std::to_string(quality_in.self_intersections) + " -> " + std::to_string(q.self_intersections) +
+             ", genus " + std::to_string(quality_in.genus) + " -> " + std::to_string(q.genus));
+    if (q.self_intersections > quality_in.self_intersections || q.genus != quality_in.genus)
+      warn("materials: moving the vertices changed the surface's topology or folded it through itself");
+  }
   if (stage.sky_fitted()) {
     // the map with its unseen sky scaled: what the fit saw, and what the test renders use
     const Vec3f k = stage.unseen_sky_scale();

@@ -588,6 +588,7 @@ struct HomeOptions {
   int batches = 20;
   int loss_batches = 8;
   double t_max = 1.5, t_step = 0.1;
+  double lambda = -1.0;                  // large steps' λ of the preconditioned components (< 0: stage 2's)
   std::string targets = "photo";         // photo | ray
   int noise_blur_index = 0;              // the blur whose gradient noise is split by class
   fs::path write_projected;              // the mesh moved onto the true surface (x + Δ), as OBJ
@@ -670,7 +671,8 @@ io::Json home(Setup& setup, const HomeOptions& o) {
     for (std::size_t k = 0; k < x0.size(); ++k) xp[k] = float(double(x0[k]) + delta[k]);
     io::write_mesh(o.write_projected, cli::to_io_mesh(xp, s.mesh.triangles));
   }
-  optim::LargeSteps large_steps(setup.config().lambda);
+  const double lambda = o.lambda >= 0.0 ? o.lambda : setup.config().lambda;
+  optim::LargeSteps large_steps(lambda);
   large_steps.set_topology(s.mesh.triangles, s.mesh.num_vertices());
 
   const std::size_t nv = x0.size() / 3;
@@ -681,7 +683,7 @@ io::Json home(Setup& setup, const HomeOptions& o) {
   out["delta_rms"] = delta_norm / std::sqrt(double(nv));
   out["delta_energy_along_normals"] = along_normal;
   out["targets"] = o.targets;
-  out["lambda"] = setup.config().lambda;
+  out["lambda"] = lambda;
   out["blurs"] = io::Json::array();
   const pipeline::Stage2& stage = setup.stage();
   TraceSettings reference = render::reference_pass_options().trace;
@@ -709,9 +711,10 @@ io::Json home(Setup& setup, const HomeOptions& o) {
     std::sort(lum.begin(), lum.end());
     const double t1 = lum[lum.size() / 3], t2 = lum[2 * lum.size() / 3];
 
-    std::vector<std::string> names = {"raw", "clipped", "depth_2", "main_path", "main_path_clipped"};
+    std::vector<std::string> names = {"raw",       "clipped",         "depth_2", "main_path", "main_path_clipped",
+                                      "clipped_normal", "main_path_clipped_normal"};
     if (split) names.insert(names.end(), {"paths_1", "paths_2", "paths_3_4", "tir", "no_tir", "dark", "mid", "bright"});
-    std::vector<ComponentStats> comp(names.size()), comp_pre(5);
+    std::vector<ComponentStats> comp(names.size()), comp_pre(7);
     double sum_clipped_rays = 0.0;
     for (int b = 0; b < o.batches; ++b) {
       const auto& r = rays[std::size_t(b)];
@@ -750,7 +753,18 @@ io::Json home(Setup& setup, const HomeOptions& o) {
       const std::vector<double> gm = vertex_gradient<float>(s, r, loss, main_path);
       const std::vector<double> gmc =
           vertex_gradient<float>(s, r, loss, main_path, setup.config().clip_geometry * inv_n);
-      const std::vector<const std::vector<double>*> parts{&g, &gc, &g12, &gm, &gmc};
+      // each vertex's gradient projected on its normal (Δ lies mostly along the normals)
+      const auto along_normals = [&](const std::vector<double>& v) {
+        std::vector<double> out(v.size());
+        for (std::size_t q = 0; q < nv; ++q) {
+          double dn = 0.0;
+          for (int c = 0; c < 3; ++c) dn += v[3 * q + std::size_t(c)] * double(s.mesh.vertex_normals[3 * q + std::size_t(c)]);
+          for (int c = 0; c < 3; ++c) out[3 * q + std::size_t(c)] = dn * double(s.mesh.vertex_normals[3 * q + std::size_t(c)]);
+        }
+        return out;
+      };
+      const std::vector<double> gcn = along_normals(gc), gmcn = along_normals(gmc);
+      const std::vector<const std::vector<double>*> parts{&g, &gc, &g12, &gm, &gmc, &gcn, &gmcn};
       for (std::size_t c = 0; c < parts.size(); ++c) {
         comp[c].add(*parts[c], delta_unit);
         comp_pre[c].add(preconditioned(large_steps, *parts[c]), delta_unit);
@@ -759,9 +773,9 @@ io::Json home(Setup& setup, const HomeOptions& o) {
       const std::vector<double> g1 = vertex_gradient<float>(s, r, fixed(all), d1);
       std::vector<double> g2(g.size()), g34(g.size());
       for (std::size_t k = 0; k < g.size(); ++k) g2[k] = g12[k] - g1[k], g34[k] = g[k] - g12[k];
-      comp[5].add(g1, delta_unit);
-      comp[6].add(g2, delta_unit);
-      comp[7].add(g34, delta_unit);
+      comp[7].add(g1, delta_unit);
+      comp[8].add(g2, delta_unit);
+      comp[9].add(g34, delta_unit);
       std::vector<char> tir(r.size()), dark(r.size()), mid(r.size()), bright(r.size());
       for (std::size_t i = 0; i < r.size(); ++i) {
         tir[i] = at_x[i].stats.tir > 0;
@@ -773,11 +787,11 @@ io::Json home(Setup& setup, const HomeOptions& o) {
       const std::vector<double> gt = vertex_gradient<float>(s, r, fixed(tir), setup.trace());
       std::vector<double> gnt(g.size());
       for (std::size_t k = 0; k < g.size(); ++k) gnt[k] = g[k] - gt[k];
-      comp[8].add(gt, delta_unit);
-      comp[9].add(gnt, delta_unit);
-      comp[10].add(vertex_gradient<float>(s, r, fixed(dark), setup.trace()), delta_unit);
-      comp[11].add(vertex_gradient<float>(s, r, fixed(mid), setup.trace()), delta_unit);
-      comp[12].add(vertex_gradient<float>(s, r, fixed(bright), setup.trace()), delta_unit);
+      comp[10].add(gt, delta_unit);
+      comp[11].add(gnt, delta_unit);
+      comp[12].add(vertex_gradient<float>(s, r, fixed(dark), setup.trace()), delta_unit);
+      comp[13].add(vertex_gradient<float>(s, r, fixed(mid), setup.trace()), delta_unit);
+      comp[14].add(vertex_gradient<float>(s, r, fixed(bright), setup.trace()), delta_unit);
     }
     io::Json bj;
     bj["blur_texels"] = blur;
@@ -1138,6 +1152,8 @@ int main(int argc, char** argv) {
   h->add_option("--batches", ho.batches, "Batches for the gradient statistics")->capture_default_str()->check(CLI::PositiveNumber);
   h->add_option("--loss-batches", ho.loss_batches, "Fixed batches averaged for the loss along Δ")->capture_default_str()
       ->check(CLI::PositiveNumber);
+  h->add_option("--lambda", ho.lambda, "Large steps' lambda of the preconditioned components (default: stage 2's)")
+      ->check(CLI::NonNegativeNumber);
   h->add_option("--t-max", ho.t_max, "Loss along x + tΔ for t in [0, T_MAX]")->capture_default_str();
   h->add_option("--t-step", ho.t_step, "Step of t")->capture_default_str()->check(CLI::PositiveNumber);
   h->add_option("--targets", ho.targets, "photo: the training pixels; ray: the true object traced along the same ray "
