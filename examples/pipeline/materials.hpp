@@ -148,6 +148,11 @@ struct Stage2Config {
   float lr_absorption = 5e-3f;
   float lr_positions = 1e-3f;
   float beta1_positions = 0.9f;   // the vertices' Adam momentum: 0.99 averages the noisy gradient over ~100 steps
+  // The vertex rate falls along a cosine from 1 to this fraction over the
+  // geometry phase (1: constant), so that the last steps, against the
+  // sharpest map and at the noisiest gradient, do not leave a random walk's
+  // roughness on the surface.
+  float vertex_anneal_floor = 1.0f;
   float lr_decay = 2e-4f;
   // Convergence: over the last anneal_fraction of the iterations (never
   // before the vertices stop) the IoR and absorption rates fall along a
@@ -346,6 +351,9 @@ struct Stage2Config {
       c.lr_positions);
     v(Field{"beta1_vertices", "--materials-beta1-vertices", "Adam momentum of the vertices", 0, 0.9999},
       c.beta1_positions);
+    v(Field{"vertex_anneal_floor", "--materials-vertex-anneal",
+            "the vertex rate falls along a cosine to this fraction over the geometry phase (1: constant)", 0, 1},
+      c.vertex_anneal_floor);
     v(Field{"lr_decay", "", "d in lr 10^(-d i)"}, c.lr_decay);
     v(Field{"anneal_fraction", "", "final fraction of the iterations over which the material rates fall (cosine)"},
       c.anneal_fraction);
@@ -777,7 +785,7 @@ class Stage2 {
     if (st.geometry_moving) {
       for (float& g : grad.positions)
         if (!std::isfinite(g)) g = 0.0f;
-      positions_.step(scene_.mesh.positions, grad.positions, decay * config_.lr_positions);
+      positions_.step(scene_.mesh.positions, grad.positions, decay * vertex_anneal(it) * config_.lr_positions);
       scene_.positions_changed();
     }
     if (sky_moving) {
@@ -1109,6 +1117,15 @@ class Stage2 {
     if (it < start || config_.iterations <= start) return 1.0f;
     const double t = double(it - start) / double(config_.iterations - start), pi = 3.14159265358979323846;
     return float(config_.anneal_floor + (1.0 - config_.anneal_floor) * 0.5 * (1.0 + std::cos(pi * t)));
+  }
+
+  // The factor of the vertex rate at iteration it of the geometry phase: a
+  // cosine from 1 to vertex_anneal_floor.
+  float vertex_anneal(int it) const {
+    const int n = std::max(1, config_.geometry_iterations);
+    const double t = std::clamp(double(it - config_.freeze_geometry) / double(n), 0.0, 1.0);
+    const double pi = 3.14159265358979323846, f = config_.vertex_anneal_floor;
+    return float(f + (1.0 - f) * 0.5 * (1.0 + std::cos(pi * t)));
   }
 
   // Mean σ over the grid vertices, per channel.
