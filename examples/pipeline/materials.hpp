@@ -1135,7 +1135,7 @@ class Stage2 {
   float vertex_anneal(int it) const {
     const int n = std::max(1, config_.geometry_iterations);
     const double t = std::clamp(double(it - config_.freeze_geometry) / double(n), 0.0, 1.0);
-    const double pi = 3.14159265358979323846, f = config_.vertex_anneal_floor;
+    const double pi = pi_v<double>, f = config_.vertex_anneal_floor;
     return float(f + (1.0 - f) * 0.5 * (1.0 + std::cos(pi * t)));
   }
 

@@ -13,6 +13,7 @@
 #include <numeric>
 #include <vector>
 
+#include "difftrans/core/constants.hpp"
 #include "difftrans/core/vec.hpp"
 #include "difftrans/geometry/topology.hpp"
 
@@ -106,42 +107,23 @@ inline MeshQuality mesh_quality(const std::vector<float>& positions, const std::
     const double l = glm::length(n);
     normal[f] = l > 0.0 ? n / l : Vec3d(0.0);
   }
-  // faces around each undirected edge, from the sorted list of (edge, face)
-  struct EdgeFace {
-    std::int64_t key;
-    std::int32_t face;
-  };
-  std::vector<EdgeFace> ef;
-  ef.reserve(triangles.size());
-  for (std::size_t f = 0; f < nt; ++f)
-    for (int k = 0; k < 3; ++k) {
-      const std::int32_t a = triangles[3 * f + std::size_t(k)], b = triangles[3 * f + std::size_t((k + 1) % 3)];
-      ef.push_back({std::int64_t(std::min(a, b)) * std::int64_t(nv) + std::max(a, b), std::int32_t(f)});
-    }
-  std::sort(ef.begin(), ef.end(), [](const EdgeFace& x, const EdgeFace& y) {
-    return x.key < y.key || (x.key == y.key && x.face < y.face);
-  });
+  // the edges with exactly two faces (topology.hpp's edge walk)
   double sum = 0.0;
-  bool closed = !ef.empty();
-  for (std::size_t i = 0; i < ef.size();) {
-    std::size_t j = i;
-    while (j < ef.size() && ef[j].key == ef[i].key) ++j;
-    if (j - i == 2) {
-      const double c = std::clamp(glm::dot(normal[std::size_t(ef[i].face)], normal[std::size_t(ef[i + 1].face)]), -1.0, 1.0);
-      const double angle = std::acos(c) * 180.0 / 3.14159265358979323846;
-      sum += angle;
-      q.max_dihedral_degrees = std::max(q.max_dihedral_degrees, angle);
-      ++q.interior_edges;
-    } else {
-      closed = false;
-    }
-    i = j;
-  }
+  geometry::for_each_edge(triangles.data(), std::int32_t(nt),
+                          [&](std::int32_t, std::int32_t, const std::int32_t* corners, int count) {
+                            if (count != 2) return;
+                            const double c = std::clamp(
+                                glm::dot(normal[std::size_t(corners[0] / 3)], normal[std::size_t(corners[1] / 3)]), -1.0, 1.0);
+                            const double angle = std::acos(c) * 180.0 / pi_v<double>;
+                            sum += angle;
+                            q.max_dihedral_degrees = std::max(q.max_dihedral_degrees, angle);
+                            ++q.interior_edges;
+                          });
   q.mean_dihedral_degrees = q.interior_edges > 0 ? sum / double(q.interior_edges) : 0.0;
-  q.closed = closed;
   const geometry::MeshGenus g = geometry::mesh_genus(triangles, nv);
   q.genus = int(g.genus);
   q.components = g.components;
+  q.closed = g.closed && !triangles.empty();
   q.self_intersections = self_intersections(positions, triangles);
   return q;
 }
