@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "output_folder.hpp"
 #include "views.hpp"
 
 namespace difftrans::cli {

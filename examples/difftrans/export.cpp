@@ -4,6 +4,7 @@
 // material JSON beside it. Everything goes into the folder --out (written as
 // OUT.partial and moved into place when complete).
 #include "export.hpp"
+#include "output_folder.hpp"
 
 #include <array>
 #include <charconv>

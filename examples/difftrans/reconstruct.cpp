@@ -5,15 +5,19 @@
 // Stages run in the order given and read what earlier ones wrote into --out;
 // reconstruct.json keeps the records of stages run by earlier invocations and
 // is rewritten after each stage, and a stage stopped by SIGINT / SIGTERM
-// leaves its checkpoint for the next run.
+// leaves its checkpoint for the next run. The output folder is only ever seen
+// whole (output_folder.hpp: RunFolder), even when the process is killed.
 #include <chrono>
 #include <exception>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
 #include <sys/resource.h>
 
 #include "command.hpp"
+#include "long_run.hpp"
+#include "output_folder.hpp"
 #include "scene_options.hpp"
 #include "stages.hpp"
 #include "views.hpp"
@@ -118,14 +122,17 @@ void add_reconstruct(CLI::App& app) {
     if (exposure["source"] != "none" || exposure.contains("reason"))
       progress("reconstruct: exposure " + exposure["scale"].dump() + " (" + exposure["source"].get<std::string>() +
                (exposure.contains("reason") ? ": " + exposure["reason"].get<std::string>() : std::string()) + ")");
-    fs::create_directories(opt->out);
+    // Everything is written into OUT.partial, a copy of OUT, and published as
+    // OUT in one step after each stage and each checkpoint (output_folder.hpp):
+    // a run killed at any moment leaves OUT as its last publication made it.
+    RunFolder folder(opt->out);
     io::Json result = io::Json::object();
-    const fs::path record = opt->out / "reconstruct.json";
+    const fs::path record = folder.work() / "reconstruct.json";
     if (fs::exists(record)) {  // keep the stages an earlier invocation ran
       try {
         result = io::read_json(record);
       } catch (const std::exception& e) {
-        warn(record.string() + " is unreadable (" + e.what() + "); starting a new record");
+        warn(folder.shown(record).string() + " is unreadable (" + e.what() + "); starting a new record");
       }
     }
     result["scene"] = opt->scene.string();
@@ -133,20 +140,27 @@ void add_reconstruct(CLI::App& app) {
     result["exposure"] = exposure;
     if (!gt_skipped.empty()) result["ground_truth_skipped"] = gt_skipped;
     else result.erase("ground_truth_skipped");
-    // the record of every finished stage is on disk before the next one
+    // the record of every finished stage is published before the next one
     // starts; during a fit SIGINT / SIGTERM make it save its checkpoint and
-    // stop (long_run.hpp), elsewhere they end the program as usual
-    for (const auto& s : stages) {
-      if (s == "environment") {
-        result["environment"] = environment_stage(scene, opt->out, *environment);
-      } else if (s == "geometry") {
-        result["geometry"] = geometry_stage(scene, opt->out, *geometry, *run);
-      } else if (s == "materials") {
-        result["materials"] = materials_stage(scene, opt->out, *materials, *run);
+    // stop (long_run.hpp), which is published too; elsewhere they end the
+    // program as usual, and OUT keeps the last publication
+    try {
+      for (const auto& s : stages) {
+        if (s == "environment") {
+          result["environment"] = environment_stage(scene, folder.work(), *environment);
+        } else if (s == "geometry") {
+          result["geometry"] = geometry_stage(scene, folder, *geometry, *run);
+        } else if (s == "materials") {
+          result["materials"] = materials_stage(scene, folder, *materials, *run);
+        }
+        io::write_json(record, result);
+        folder.commit();
       }
-      io::write_json(record, result);
+    } catch (const Interrupted&) {
+      folder.commit();
+      throw;
     }
-    emit_json(result, record);
+    emit_json(result, std::nullopt);
   });
 }
 

@@ -4,6 +4,7 @@
 // rendered under the same maps: images, metrics and a contact sheet per map.
 #include <set>
 
+#include "output_folder.hpp"
 #include "views.hpp"
 
 namespace difftrans::cli {

@@ -2,6 +2,7 @@
 // cameras of a scene directory (or from generated protocol views); linear and
 // tone-mapped images, masks, and — where the scene has images for those views —
 // metrics (JSON) and a contact sheet (ground truth | render | error).
+#include "output_folder.hpp"
 #include "views.hpp"
 
 namespace difftrans::cli {

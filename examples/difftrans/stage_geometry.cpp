@@ -3,7 +3,8 @@
 // refinement). Writes mesh_stage1_raw.obj, mesh_stage1.obj, a strip of masks
 // against rendered silhouettes, the loss curve, and CD / F1 / genus when the
 // scene has a ground-truth mesh. Resumable: the FlexiCubes unknowns are saved
-// to checkpoint_stage1.bin as it runs, and a finished raw mesh is reused.
+// to checkpoint_stage1.bin as it runs (removed once the raw mesh is written),
+// and a finished raw mesh is reused.
 #include "long_run.hpp"
 #include "stages.hpp"
 #include "stage_output.hpp"
@@ -15,6 +16,7 @@
 #include <cstdio>
 #include <fstream>
 #include <sstream>
+#include <system_error>
 #include <sys/resource.h>
 
 #include "config_options.hpp"
@@ -103,7 +105,7 @@ void add_geometry_options(CLI::App* cmd, GeometryOptions& opt) {
   cmd->add_option("--weights", opt.weights, "Geometry: loss weights NAME=VALUE,... (" + names + ")");
 }
 
-io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out, const GeometryOptions& opt,
+io::Json geometry_stage(const io::Scene& scene, RunFolder& folder, const GeometryOptions& opt,
                         const RunOptions& run) {
   const auto t_start = clock_type::now();
   namespace fs = std::filesystem;
@@ -176,6 +178,7 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
     pipeline::stage1_unit_box(cfg, cfg.box_margin);
   }
 
+  const fs::path& out = folder.work();
   const fs::path raw_path = out / "mesh_stage1_raw.obj", final_path = out / "mesh_stage1.obj",
                  ckpt_path = out / "checkpoint_stage1.bin";
   io::Json j;
@@ -188,7 +191,7 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
   std::vector<double> fc_loss, fc_mask;
   double fc_seconds = 0.0, mean_iteration = 0.0;
   if (!run.restart && fs::exists(raw_path)) {
-    progress("geometry: reusing " + raw_path.string() + " (finished earlier; --restart recomputes it)");
+    progress("geometry: reusing " + folder.shown(raw_path).string() + " (finished earlier; --restart recomputes it)");
     from_io_mesh(io::read_mesh(raw_path), raw_pos, raw_tris);
     j["raw_reused"] = true;
   } else {
@@ -198,9 +201,9 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
     if (!run.restart && fs::exists(ckpt_path)) {
       resumed = fc.load(ckpt_path);
       if (resumed)
-        progress("geometry: resuming from " + ckpt_path.string() + " at iteration " + std::to_string(fc.iteration()));
+        progress("geometry: resuming from " + folder.shown(ckpt_path).string() + " at iteration " + std::to_string(fc.iteration()));
       else
-        warn("geometry: " + ckpt_path.string() + " is for another grid or unreadable; starting afresh");
+        warn("geometry: " + folder.shown(ckpt_path).string() + " is for another grid or unreadable; starting afresh");
     }
     if (!resumed && cfg.init == pipeline::Stage1Init::hull) fc.init_visual_hull(views);
     fc.set_carving(views);
@@ -228,11 +231,12 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
       if (stop_requested()) {
         fc.save(ckpt_path);
         stop_if_requested("geometry", "the FlexiCubes state at iteration " + std::to_string(fc.iteration()) +
-                                          " is saved in " + ckpt_path.string());
+                                          " is saved in " + folder.shown(ckpt_path).string());
       }
       if (last || (run.checkpoint_every > 0 && fc.iteration() % run.checkpoint_every == 0) ||
           seconds_since(last_save) > 60.0) {
         fc.save(ckpt_path);
+        folder.commit();  // OUT now holds this checkpoint
         last_save = clock_type::now();
         // the topology as it evolves (the largest component's genus is what the refinement keeps)
         const dg::FlexiCubesMesh<float> now = fc.extract(dg::QuadSplit::two_triangles);
@@ -259,10 +263,14 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
     raw_tris = mesh.triangles;
     if (raw_tris.empty()) throw std::runtime_error("geometry: the FlexiCubes grid holds no surface at the end");
     io::write_mesh(raw_path, to_io_mesh(raw_pos, raw_tris));
+    // the raw mesh is what a later run reuses; the FlexiCubes state (79 MB at
+    // a 128^3 grid) would only be copied at every publication of the folder
+    std::error_code ignored;
+    fs::remove(ckpt_path, ignored);
     fc_seconds = seconds_since(t0);
     j["flexicubes_seconds"] = fc_seconds;
     j["seconds_per_iteration"] = mean_iteration;
-    progress("geometry: wrote " + raw_path.string() + " (" + fixed(fc_seconds, 1) + " s)");
+    progress("geometry: wrote " + folder.shown(raw_path).string() + " (" + fixed(fc_seconds, 1) + " s)");
   }
   j["raw"] = geometry_record(raw_pos, raw_tris);
   j["raw"]["mask_l1_train"] = pipeline::stage1_mask_error(raw_pos, raw_tris, views);
@@ -275,7 +283,7 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
   if (dropped) progress("geometry: dropped " + std::to_string(dropped) + " small component(s) before remeshing");
   std::vector<double> ref_loss;
   if (!run.restart && fs::exists(final_path) && j.contains("raw_reused")) {
-    progress("geometry: reusing " + final_path.string());
+    progress("geometry: reusing " + folder.shown(final_path).string());
     from_io_mesh(io::read_mesh(final_path), pos, tris);
   } else {
     const auto t1 = clock_type::now();
@@ -286,7 +294,7 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
       meter.update(s.iteration + 1, "loss " + fixed(s.loss, 5) + " mask " + fixed(s.mask, 5) + "  " +
                                         fixed(s.seconds, 3) + " s/it");
       // the refinement is short and keeps no checkpoint: the FlexiCubes mesh is what is saved
-      stop_if_requested("geometry", "the FlexiCubes mesh is saved in " + raw_path.string() +
+      stop_if_requested("geometry", "the FlexiCubes mesh is saved in " + folder.shown(raw_path).string() +
                                         "; the refinement starts again from it");
     });
     meter.finish();
@@ -300,7 +308,7 @@ io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out
     j["remesh_seconds"] = r.remesh_seconds;
     j["refine_seconds"] = r.refine_seconds;
     j["refine_total_seconds"] = seconds_since(t1);
-    progress("geometry: wrote " + final_path.string());
+    progress("geometry: wrote " + folder.shown(final_path).string());
   }
   j["final"] = geometry_record(pos, tris);
   j["final"]["mask_l1_train"] = pipeline::stage1_mask_error(pos, tris, views);

@@ -52,19 +52,20 @@ void add_materials_options(CLI::App* cmd, pipeline::Stage2Config& config) {
   add_config_options(cmd, config, "Materials: ");
 }
 
-io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& out, const pipeline::Stage2Config& config,
+io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeline::Stage2Config& config,
                          const RunOptions& run) {
   namespace fs = std::filesystem;
   using clock = std::chrono::steady_clock;
   const auto t_start = clock::now();
+  const fs::path& out = folder.work();
   const fs::path mesh_path = config.mesh.empty() ? out / "mesh_stage1.obj" : fs::path(config.mesh);
   if (!fs::exists(mesh_path))
-    throw std::runtime_error(mesh_path.string() + ": the stage-1 mesh is missing; run --stages geometry first "
+    throw std::runtime_error(folder.shown(mesh_path).string() + ": the stage-1 mesh is missing; run --stages geometry first "
                              "(or give --materials-mesh)");
   const io::Mesh mesh = io::read_mesh(mesh_path);
   render::HostScene s = render::make_host_scene(mesh, io::Material{}, mesh_path.filename().string());
   io::Json j;
-  j["mesh_in"] = mesh_path.string();
+  j["mesh_in"] = folder.shown(mesh_path).string();
   const metrics::MeshQuality quality_in = metrics::mesh_quality(s.mesh.positions, s.mesh.triangles);
   // what the fit starts from, to tell a checkpoint of this run from another's
   std::string inputs = "mesh " + fingerprint(mesh.positions) + fingerprint(mesh.triangles);
@@ -74,14 +75,14 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
     auto field = std::make_shared<const scene::RadianceField>(io::read_radiance_field(field_path));
     inputs += " field " + fingerprint(field->values);
     s.set_near_field(std::move(field));
-    j["environment"] = field_path.string();
+    j["environment"] = folder.shown(field_path).string();
   } else if (fs::exists(env_path)) {
     const io::Image map = io::read_image(env_path);
     inputs += " map " + fingerprint(map.rgb);
     render::set_environment(s, map);
-    j["environment"] = env_path.string();
+    j["environment"] = folder.shown(env_path).string();
   } else {
-    throw std::runtime_error(env_path.string() + ": no recovered environment; run --stages environment first");
+    throw std::runtime_error(folder.shown(env_path).string() + ": no recovered environment; run --stages environment first");
   }
 
   // training views: images and masks
@@ -125,9 +126,9 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
   const std::string run_name = settings.dump() + " seed " + std::to_string(cfg.seed) + " " + inputs;
   if (!run.restart && fs::exists(ckpt_path)) {
     if (stage.load(ckpt_path, run_name))
-      progress("materials: resuming from " + ckpt_path.string() + " at iteration " + std::to_string(stage.iteration()));
+      progress("materials: resuming from " + folder.shown(ckpt_path).string() + " at iteration " + std::to_string(stage.iteration()));
     else
-      warn("materials: " + ckpt_path.string() +
+      warn("materials: " + folder.shown(ckpt_path).string() +
            " is of other settings or inputs, lies past --materials-iterations, or is damaged; starting afresh");
   }
   j["resumed_at"] = stage.iteration();
@@ -177,10 +178,11 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
           (run.checkpoint_every > 0 && stage.iteration() % run.checkpoint_every == 0) ||
           std::chrono::duration<double>(clock::now() - last_save).count() > 60.0) {
         save();
+        folder.commit();  // OUT now holds this checkpoint
         last_save = clock::now();
       }
       stop_if_requested("materials", "the fit at iteration " + std::to_string(stage.iteration()) + " is saved in " +
-                                         ckpt_path.string());
+                                         folder.shown(ckpt_path).string());
     }
     meter.finish();
   }
@@ -292,7 +294,7 @@ io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& ou
     io::write_hdr(out / "envmap_stage2.hdr", map);
     j["unseen_sky"] = {{"scale", {k.x, k.y, k.z}},
                        {"solid_angle_fraction", stage.unseen_solid_angle_fraction()},
-                       {"map", (out / "envmap_stage2.hdr").string()}};
+                       {"map", folder.shown(out / "envmap_stage2.hdr").string()}};
     progress("materials: the sky no background pixel saw (" + fixed(100.0 * stage.unseen_solid_angle_fraction(), 1) +
              " % of the sphere) scaled by " + fixed(k.x, 3) + ", " + fixed(k.y, 3) + ", " + fixed(k.z, 3) +
              " (envmap_stage2.hdr)");

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "command.hpp"
+#include "output_folder.hpp"
 
 #include "difftrans/io/dataset.hpp"
 #include "pipeline/environment.hpp"
@@ -44,15 +45,16 @@ struct GeometryOptions {
 
 void add_geometry_options(CLI::App* cmd, GeometryOptions& opt);
 
-// Runs stage 1 on the scene's training views, writing into `out`; returns the stage's JSON record.
-io::Json geometry_stage(const io::Scene& scene, const std::filesystem::path& out, const GeometryOptions& opt,
-                        const RunOptions& run);
+// Runs stage 1 on the scene's training views, writing into `out`'s work
+// folder and publishing it after each checkpoint; returns the stage's JSON record.
+io::Json geometry_stage(const io::Scene& scene, RunFolder& out, const GeometryOptions& opt, const RunOptions& run);
 
 // Stage 2 (IoR, absorption grid and, optionally, vertices through the tracer): stage_materials.cpp.
 void add_materials_options(CLI::App* cmd, pipeline::Stage2Config& config);
 
-// Runs stage 2 from the stage-1 mesh and the recovered environment in `out`; returns the stage's JSON record.
-io::Json materials_stage(const io::Scene& scene, const std::filesystem::path& out, const pipeline::Stage2Config& config,
+// Runs stage 2 from the stage-1 mesh and the recovered environment in `out`'s
+// work folder, publishing it after each checkpoint; returns the stage's JSON record.
+io::Json materials_stage(const io::Scene& scene, RunFolder& out, const pipeline::Stage2Config& config,
                          const RunOptions& run);
 
 }  // namespace difftrans::cli

@@ -1,6 +1,7 @@
 // difftrans synth: renders a synthetic scene directory (docs/scene-format.md) with its
 // ground truth in gt/ — from a benchmark preset and variant, or from explicit
 // options (each explicit option also overrides the preset's value).
+#include "output_folder.hpp"
 #include "views.hpp"
 
 namespace difftrans::cli {
