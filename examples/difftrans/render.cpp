@@ -16,6 +16,7 @@ struct RenderOptions {
   int resolution = 256;
   std::uint64_t seed = 0;
   int max_depth = 16, spp_axis = 4, sheet_rows = 4;
+  float roulette = 0.0f;  // Russian roulette below this throughput (0: the whole tree)
   bool overwrite = false;
 };
 
@@ -53,8 +54,12 @@ void run(const RenderOptions& o) {
   OutputDir out(o.out, o.overwrite, {o.mesh, o.scene, o.env, o.material.material_file, o.material.absorption_grid});
   render::HostScene s = render::make_host_scene(mesh, material, fs::path(o.mesh).filename().string());
   apply_environment(s, env);
-  const auto rendered = render_views(s, views, render::reference_pass_options(o.max_depth, o.spp_axis), out.path(),
-                                     true, "render");
+  render::PassOptions pass = render::reference_pass_options(o.max_depth, o.spp_axis);
+  if (o.roulette > 0.0f) {
+    pass.trace.prune_throughput = o.roulette;
+    pass.trace.roulette = true;
+  }
+  const auto rendered = render_views(s, views, pass, out.path(), true, "render");
   io::write_transforms(out.path() / "transforms.json", split_of(rendered));
   io::Json result = io::Json::object();
   if (with_truth) {
@@ -97,6 +102,11 @@ void add_render(CLI::App& app) {
   cmd->add_option("--max-depth", o->max_depth, "surface interactions per path")->capture_default_str()
       ->check(CLI::Range(1, render::max_trace_depth));
   cmd->add_option("--spp-axis", o->spp_axis, "n: n x n samples per pixel")->capture_default_str()->check(CLI::Range(1, 64));
+  cmd->add_option("--roulette", o->roulette,
+                  "Russian roulette below this branch throughput: unbiased, and at 0.01 about 3x faster at equal "
+                  "quality on spot-clear (bench/equal_quality); 0: the whole Fresnel tree, as the reference renders")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0));
   cmd->add_option("--sheet-rows", o->sheet_rows, "views in the contact sheet")->capture_default_str()->check(CLI::Range(1, 64));
   cmd->add_option("--out", o->out, "output folder")->required();
   cmd->add_flag("--overwrite", o->overwrite, "replace an existing, non-empty --out");

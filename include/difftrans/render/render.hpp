@@ -1,7 +1,8 @@
 // Everything of the render layer on the host: tracer, host scene, passes,
-// silhouettes, whole views.
+// adaptive sampling, silhouettes, whole views.
 #pragma once
 
+#include "difftrans/render/adaptive.hpp"
 #include "difftrans/render/host_scene.hpp"
 #include "difftrans/render/passes.hpp"
 #include "difftrans/render/raster.hpp"

@@ -1,0 +1,276 @@
+// Time per view at equal image quality: today's reference settings (depth 16,
+// the whole Fresnel tree, uniform n × n samples) against the faster settings,
+// each swept over its sample budget, on one scene. Quality is the PSNR of the
+// 8-bit tone-mapped image over the object's pixels (docs/conventions.md)
+// against a converged render (uniform 27 × 27, depth 16, no pruning). For
+// each target PSNR the time of every setting is read off its curve (linear in
+// log time between the two points around the target) and divided into the
+// reference settings' time: the speed-up at that quality, measured in one run.
+//
+// Settings:
+//   reference   depth 16, no pruning, uniform n × n, n = 1, 2, 4, 8, 16
+//   roulette    the same with Russian roulette below throughput 0.01
+//   adaptive    roulette + adaptive sampling (render/adaptive.hpp): rounds
+//               of 2 × 2 samples, 2 to 64 per pixel, while the tone-mapped
+//               pixel is uncertain, tolerance 64 ... 2 levels
+//   roulette+path  roulette, with the Fresnel tree for the first 2
+//               interactions and one branch sampled by Fresnel weight beyond
+//   adaptive+path  adaptive, the same
+//
+// usage: equal_quality [--mesh spot] [--ior 1.472] [--env venice_sunset_1k.hdr]
+//                      [--size 128] [--targets 23,28,33] [--out DIR]
+//        equal_quality --scene DIR [--view K] ...   a scene's test view K with
+//                      its gt/ mesh, material (IoR, absorption) and map
+// Writes equal_quality.json into --out.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "difftrans/io/dataset.hpp"
+#include "difftrans/io/hdr.hpp"
+#include "difftrans/io/image_file.hpp"
+#include "difftrans/io/material.hpp"
+#include "difftrans/io/image.hpp"
+#include "difftrans/io/mesh_file.hpp"
+#include "difftrans/render/adaptive.hpp"
+#include "difftrans/render/passes.hpp"
+#include "difftrans/render/views.hpp"
+
+namespace dr = difftrans::render;
+using difftrans::Vec3f;
+
+namespace {
+
+struct Point {
+  std::string budget;
+  double seconds = 0, psnr = 0, samples = 0;
+};
+
+struct Curve {
+  std::string name, description;
+  std::vector<Point> points;
+};
+
+double seconds_of(const std::function<void()>& f) {
+  const auto t0 = std::chrono::steady_clock::now();
+  f();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// PSNR of the 8-bit tone-mapped images over the object's pixels
+double object_psnr(const std::vector<float>& img, const std::vector<float>& ref, const std::vector<bool>& mask) {
+  double sum = 0.0;
+  std::size_t n = 0;
+  for (std::size_t p = 0; p < mask.size(); ++p)
+    if (mask[p])
+      for (std::size_t c = 0; c < 3; ++c) {
+        const double d = (double(difftrans::io::tone_map_value(img[3 * p + c])) -
+                          double(difftrans::io::tone_map_value(ref[3 * p + c]))) / 255.0;
+        sum += d * d;
+        ++n;
+      }
+  const double mse = n ? sum / double(n) : 0.0;
+  return mse > 0.0 ? -10.0 * std::log10(mse) : 99.0;
+}
+
+// The time a curve needs to reach `target` dB: linear in log time between the
+// last point below and the first point at or above it; < 0: not reached.
+double seconds_at(const Curve& c, double target) {
+  std::vector<Point> pts = c.points;
+  std::sort(pts.begin(), pts.end(), [](const Point& a, const Point& b) { return a.seconds < b.seconds; });
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    if (pts[i].psnr < target) continue;
+    if (i == 0) return pts[0].seconds;  // the cheapest point already reaches it
+    const Point &a = pts[i - 1], &b = pts[i];
+    if (a.psnr >= target || b.psnr <= a.psnr) return b.seconds;
+    const double t = (target - a.psnr) / (b.psnr - a.psnr);
+    return std::exp(std::log(a.seconds) + t * (std::log(b.seconds) - std::log(a.seconds)));
+  }
+  return -1.0;
+}
+
+std::vector<double> parse_list(const std::string& text) {
+  std::vector<double> v;
+  std::stringstream ss(text);
+  for (std::string item; std::getline(ss, item, ',');) v.push_back(std::atof(item.c_str()));
+  return v;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string mesh_name = "spot", env_name = "venice_sunset_1k.hdr", out_dir = ".", targets_text = "23,28,33",
+              scene_dir;
+  float ior = 1.472f;
+  int size = 128, view = 0;
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string a = argv[i];
+    if (a == "--mesh") mesh_name = argv[i + 1];
+    else if (a == "--ior") ior = float(std::atof(argv[i + 1]));
+    else if (a == "--env") env_name = argv[i + 1];
+    else if (a == "--size") size = std::atoi(argv[i + 1]);
+    else if (a == "--targets") targets_text = argv[i + 1];
+    else if (a == "--out") out_dir = argv[i + 1];
+    else if (a == "--scene") scene_dir = argv[i + 1];
+    else if (a == "--view") view = std::atoi(argv[i + 1]);
+    else {
+      std::fprintf(stderr,
+                   "equal_quality: unknown option %s\nusage: equal_quality [--mesh spot] [--ior 1.472] "
+                   "[--env venice_sunset_1k.hdr] [--size 128] [--targets 23,28,33] [--out DIR]\n",
+                   a.c_str());
+      return 2;
+    }
+  }
+  const std::string data = DIFFTRANS_DATA_DIR;
+  dr::HostScene s = [&] {
+    if (!scene_dir.empty()) {  // the scene's ground truth
+      const difftrans::io::Scene scene = difftrans::io::load_scene(scene_dir);
+      if (scene.gt.mesh.empty() || scene.gt.material.empty() || scene.gt.envmap.empty() || scene.test.frames.empty()) {
+        std::fprintf(stderr, "equal_quality: %s needs gt/mesh.obj, gt/material.json, gt/envmap.hdr and test views\n",
+                     scene_dir.c_str());
+        std::exit(2);
+      }
+      dr::HostScene hs = dr::make_host_scene(difftrans::io::read_mesh(scene.gt.mesh),
+                                             difftrans::io::read_material(scene.gt.material), "gt");
+      dr::set_environment(hs, difftrans::io::read_image(scene.gt.envmap));
+      mesh_name = scene_dir;
+      env_name = scene.gt.envmap.filename().string();
+      ior = hs.ior;
+      return hs;
+    }
+    difftrans::io::Mesh m = difftrans::io::read_mesh(data + "/meshes/" + mesh_name + ".obj");
+    difftrans::io::normalize_to_unit_box(m);
+    dr::HostScene hs = dr::make_host_scene(m, difftrans::io::Material{}, mesh_name);
+    hs.ior = ior;
+    dr::set_environment(hs, difftrans::io::read_hdr(data + "/envmaps/" + env_name));
+    return hs;
+  }();
+  const difftrans::scene::Camera cam = [&] {
+    if (scene_dir.empty()) return difftrans::scene::protocol_camera(Vec3f(0.4f, 0.5f, 1.0f), size, size);
+    const difftrans::io::Scene scene = difftrans::io::load_scene(scene_dir);
+    const auto& frames = scene.test.frames;
+    return dr::camera_of(frames[std::size_t(std::clamp(view, 0, int(frames.size()) - 1))]);
+  }();
+  size = cam.width;
+  std::vector<bool> mask(std::size_t(cam.width) * std::size_t(cam.height));
+  for (int y = 0; y < cam.height; ++y)
+    for (int x = 0; x < cam.width; ++x) {
+      const auto r = cam.generate_ray(x, y);
+      mask[std::size_t(y) * std::size_t(cam.width) + std::size_t(x)] = s.accel().intersect(r.origin, r.direction).hit();
+    }
+  const int threads = difftrans::ThreadPool::global().size();
+  std::fprintf(stderr, "equal_quality: %s (IoR %.3f) under %s, %d x %d, %d threads\n", mesh_name.c_str(), ior,
+               env_name.c_str(), cam.width, cam.height, threads);
+
+  dr::PassOptions reference;
+  reference.trace.max_depth = 16;
+  reference.trace.prune_throughput = 0.0f;
+  std::vector<float> converged;
+  {
+    dr::PassOptions o = reference;
+    o.samples_per_axis = 27;
+    const double sec = seconds_of([&] { converged = dr::render_image<float>(s, cam, o); });
+    std::fprintf(stderr, "converged render (27 x 27, depth 16, no pruning): %.1f s\n", sec);
+  }
+
+  std::vector<Curve> curves;
+  const auto uniform_curve = [&](const std::string& name, const std::string& what, const dr::PassOptions& base) {
+    Curve c{name, what, {}};
+    for (int n : {1, 2, 4, 8, 16}) {
+      dr::PassOptions o = base;
+      o.samples_per_axis = n;
+      std::vector<float> img;
+      Point pt;
+      pt.budget = std::to_string(n) + "x" + std::to_string(n);
+      pt.seconds = seconds_of([&] { img = dr::render_image<float>(s, cam, o); });
+      pt.psnr = object_psnr(img, converged, mask);
+      pt.samples = double(n * n);
+      std::fprintf(stderr, "  %-14s %-8s %8.3f s  %6.2f dB\n", name.c_str(), pt.budget.c_str(), pt.seconds, pt.psnr);
+      c.points.push_back(pt);
+    }
+    curves.push_back(c);
+  };
+  const auto adaptive_curve = [&](const std::string& name, const std::string& what, const dr::PassOptions& base) {
+    Curve c{name, what, {}};
+    for (float tol : {64.0f, 32.0f, 16.0f, 8.0f, 4.0f, 2.0f}) {
+      dr::AdaptiveOptions a;
+      a.per_axis = 2;
+      a.min_rounds = 2;
+      a.max_rounds = 64;
+      a.tolerance = tol;
+      dr::AdaptiveStats st;
+      std::vector<float> img;
+      Point pt;
+      char buf[32];
+      std::snprintf(buf, sizeof buf, "tol %g", double(tol));
+      pt.budget = buf;
+      pt.seconds = seconds_of([&] { img = dr::render_image_adaptive(s, cam, base, a, &st); });
+      pt.psnr = object_psnr(img, converged, mask);
+      pt.samples = st.mean_samples;
+      std::fprintf(stderr, "  %-14s %-8s %8.3f s  %6.2f dB  %.1f samples per pixel\n", name.c_str(), pt.budget.c_str(),
+                   pt.seconds, pt.psnr, pt.samples);
+      c.points.push_back(pt);
+    }
+    curves.push_back(c);
+  };
+
+  uniform_curve("reference", "depth 16, no pruning, uniform n x n (the reference settings)", reference);
+  dr::PassOptions roulette = reference;
+  roulette.trace.prune_throughput = 0.01f;
+  roulette.trace.roulette = true;
+  uniform_curve("roulette", "depth 16, Russian roulette below 0.01, uniform n x n", roulette);
+  dr::PassOptions path = roulette;
+  path.trace.tree_depth = 2;
+  uniform_curve("roulette+path", "as roulette, the Fresnel tree for 2 interactions, one sampled branch beyond", path);
+  adaptive_curve("adaptive", "as roulette, adaptive: rounds of 2x2 samples, 2 to 64 of them", roulette);
+  adaptive_curve("adaptive+path", "as adaptive, the Fresnel tree for 2 interactions, one sampled branch beyond", path);
+
+  const std::vector<double> targets = parse_list(targets_text);
+  nlohmann::json j;
+  j["scene"] = {{"mesh", mesh_name},     {"ior", ior},         {"environment", env_name}, {"width", cam.width},
+                {"height", cam.height}, {"view", view}, {"threads", threads}};
+  j["quality"] = "PSNR of the 8-bit tone-mapped image over object pixels against uniform 27 x 27, depth 16, no pruning";
+  for (const Curve& c : curves) {
+    nlohmann::json jc;
+    jc["description"] = c.description;
+    for (const Point& pt : c.points)
+      jc["points"].push_back({{"budget", pt.budget}, {"seconds", pt.seconds}, {"psnr", pt.psnr}, {"samples", pt.samples}});
+    j["settings"][c.name] = jc;
+  }
+  std::printf("\n%-14s", "target dB");
+  for (const Curve& c : curves) std::printf(" %20s", c.name.c_str());
+  std::printf("\n");
+  for (double target : targets) {
+    const double base = seconds_at(curves[0], target);
+    std::printf("%-14.1f", target);
+    nlohmann::json row;
+    row["target_psnr"] = target;
+    for (const Curve& c : curves) {
+      const double sec = seconds_at(c, target);
+      char cell[64];
+      if (sec < 0) std::snprintf(cell, sizeof cell, "not reached");
+      else if (base < 0) std::snprintf(cell, sizeof cell, "%.3f s", sec);
+      else std::snprintf(cell, sizeof cell, "%.3f s (%.2fx)", sec, base / sec);
+      std::printf(" %20s", cell);
+      row[c.name] = {{"seconds", sec < 0 ? nlohmann::json(nullptr) : nlohmann::json(sec)},
+                     {"speedup", sec < 0 || base < 0 ? nlohmann::json(nullptr) : nlohmann::json(base / sec)}};
+    }
+    std::printf("\n");
+    j["at_target"].push_back(row);
+  }
+  std::filesystem::create_directories(out_dir);
+  std::ofstream(std::filesystem::path(out_dir) / "equal_quality.json") << j.dump(2) << "\n";
+  std::printf("(speed-up: the reference settings' time at the target divided by the setting's; written %s)\n",
+              (std::filesystem::path(out_dir) / "equal_quality.json").string().c_str());
+  return 0;
+}

@@ -1,0 +1,157 @@
+// Adaptive sampling of a camera image, in rounds: each round traces n × n
+// stratified samples in every pixel still active, shifted within their strata
+// by the round's offset (round 0: the stratum centres; then the R2
+// low-discrepancy sequence), so every round is an estimate of the pixel on
+// its own. The spread of a pixel's round means measures the error of their
+// mean; a pixel stops when two standard errors move its 8-bit tone-mapped
+// value (docs/conventions.md: clamp to [0, 1], sRGB) by no more than
+// `tolerance` levels in every channel. Rounds double from min_rounds to
+// max_rounds. Plain and saturated pixels stop early; edges, textures seen
+// through the object and glints get the samples. A glint that none of a
+// pixel's first rounds sees is not found (as with uniform sampling at that
+// rate), and a stopping rule read from the samples leaves a small bias.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "difftrans/core/parallel.hpp"
+#include "difftrans/io/image.hpp"
+#include "difftrans/render/passes.hpp"
+
+namespace difftrans::render {
+
+struct AdaptiveOptions {
+  int per_axis = 2;        // n: each round's n × n samples per pixel
+  int min_rounds = 2;      // at least 2: the spread of the rounds' means is the error measure
+  int max_rounds = 64;     // no pixel gets more than max_rounds · n² samples
+  float tolerance = 2.0f;  // 8-bit levels the tone-mapped value may still move by (two standard errors)
+};
+
+struct AdaptiveStats {
+  PassStats pass;                       // all rounds together
+  std::vector<int> rounds;              // the round counts a pixel can stop at: min_rounds, doubled, ... max_rounds
+  std::vector<std::int64_t> pixels_at;  // the pixels that stopped at each of them
+  double mean_samples = 0.0;            // samples per pixel over the image
+};
+
+namespace detail {
+
+// The sub-pixel offset of round r within each stratum: the centre, then the
+// R2 sequence (additive recurrence with the plastic number).
+inline Vec2f round_offset(int r) {
+  const double a1 = 0.7548776662466927, a2 = 0.5698402909980532;
+  return Vec2f(float(std::fmod(0.5 + a1 * r, 1.0)), float(std::fmod(0.5 + a2 * r, 1.0)));
+}
+
+// A pixel's round means, summed, and the tone-mapped stopping test.
+struct PixelRounds {
+  double sum[3] = {0, 0, 0}, sum_sq[3] = {0, 0, 0};
+  int rounds = 0;
+  void add(const Vec3<double>& round_mean) {
+    for (int c = 0; c < 3; ++c) {
+      sum[c] += round_mean[c];
+      sum_sq[c] += round_mean[c] * round_mean[c];
+    }
+    ++rounds;
+  }
+  // true while two standard errors of the mean move the 8-bit value by more
+  // than `tolerance` levels in some channel
+  bool uncertain(float tolerance) const {
+    if (rounds < 2) return true;
+    for (int c = 0; c < 3; ++c) {
+      const double mean = sum[c] / rounds;
+      const double var = std::max(0.0, (sum_sq[c] - sum[c] * mean) / double(rounds - 1));
+      const double half = 2.0 * std::sqrt(var / double(rounds));
+      const int lo = io::tone_map_value(float(mean - half)), hi = io::tone_map_value(float(mean + half));
+      if (float(hi - lo) > tolerance) return true;
+    }
+    return false;
+  }
+};
+
+}  // namespace detail
+
+// The round counts a pixel can stop at.
+inline std::vector<int> adaptive_rounds(const AdaptiveOptions& a) {
+  std::vector<int> r{std::max(2, a.min_rounds)};
+  while (r.back() * 2 <= a.max_rounds) r.push_back(r.back() * 2);
+  return r;
+}
+
+// Linear RGB radiance (width·height·3), the samples spent where the
+// tone-mapped pixel is uncertain; `opt.samples_per_axis` is not used.
+// Deterministic: the sample positions are fixed and each pixel's rounds are
+// summed in order.
+template <class Escape>
+std::vector<float> render_image_adaptive_with(const HostScene& s, const scene::Camera& cam, const PassOptions& opt,
+                                              const AdaptiveOptions& a, const Escape& escape,
+                                              AdaptiveStats* stats = nullptr) {
+  const std::vector<int> stops = adaptive_rounds(a);
+  const int n = std::max(1, a.per_axis);
+  const std::int64_t pixels = std::int64_t(cam.width) * cam.height;
+  std::vector<detail::PixelRounds> acc(static_cast<std::size_t>(pixels));
+  std::vector<std::int64_t> active(static_cast<std::size_t>(pixels));
+  for (std::int64_t p = 0; p < pixels; ++p) active[std::size_t(p)] = p;
+  std::vector<float> image(static_cast<std::size_t>(pixels) * 3, 0.0f);
+  const SceneView view = s.view(false);
+  const ad::ParamSet& params = s.params();
+  AdaptiveStats st;
+  st.rounds = stops;
+  st.pixels_at.assign(stops.size(), 0);
+  ThreadPool& pool = ThreadPool::global();
+  const float inv = 1.0f / float(n);
+  int done = 0;  // rounds every active pixel has
+  for (std::size_t k = 0; k < stops.size() && !active.empty(); ++k) {
+    const int first = done, last = stops[k];
+    detail::StatsPerWorker per(pool.size());
+    pool.parallel_for(std::int64_t(active.size()), 8, [&](std::int64_t b, std::int64_t e, int w) {
+      ad::ParamReader<float> reader(&params);
+      PassStats& ps = per.per[std::size_t(w)];
+      for (std::int64_t q = b; q < e; ++q) {
+        const std::int64_t pix = active[std::size_t(q)];
+        const int x = int(pix % cam.width), y = int(pix / cam.width);
+        for (int r = first; r < last; ++r) {
+          const Vec2f o = detail::round_offset(r);
+          Vec3<double> sum(0.0);
+          for (int j = 0; j < n; ++j)
+            for (int i = 0; i < n; ++i) {
+              const scene::Ray ray = cam.generate_ray(x, y, (float(i) + o.x) * inv, (float(j) + o.y) * inv);
+              sum += Vec3<double>(trace<float>(view, s.accel(), reader, ray.origin, ray.direction, opt.trace,
+                                               &ps.trace, escape));
+              ++ps.rays;
+            }
+          acc[std::size_t(pix)].add(sum / double(n * n));
+        }
+      }
+    });
+    st.pass.add(per.total());
+    done = last;
+    const bool final_round = k + 1 == stops.size();
+    std::vector<std::int64_t> next;
+    for (const std::int64_t pix : active) {
+      const detail::PixelRounds& p = acc[std::size_t(pix)];
+      if (!final_round && p.uncertain(a.tolerance)) {
+        next.push_back(pix);
+        continue;
+      }
+      for (int c = 0; c < 3; ++c) image[std::size_t(pix) * 3 + std::size_t(c)] = float(p.sum[c] / double(p.rounds));
+      ++st.pixels_at[k];
+    }
+    active.swap(next);
+  }
+  st.mean_samples = pixels ? double(st.pass.rays) / double(pixels) : 0.0;
+  if (stats) *stats = std::move(st);
+  return image;
+}
+
+inline std::vector<float> render_image_adaptive(const HostScene& s, const scene::Camera& cam, const PassOptions& opt,
+                                                const AdaptiveOptions& a, AdaptiveStats* stats = nullptr) {
+  std::vector<float> image;
+  s.with_escape([&](const auto& escape) { image = render_image_adaptive_with(s, cam, opt, a, escape, stats); });
+  return image;
+}
+
+}  // namespace difftrans::render
