@@ -21,6 +21,7 @@
 //                      [--size 128] [--targets 23,28,33] [--out DIR]
 //        equal_quality --scene DIR [--view K] ...   a scene's test view K with
 //                      its gt/ mesh, material (IoR, absorption) and map
+//        --roulette T1,T2,...   more roulette curves at these thresholds
 // Writes equal_quality.json into --out.
 #include <algorithm>
 #include <chrono>
@@ -110,7 +111,7 @@ std::vector<double> parse_list(const std::string& text) {
 
 int main(int argc, char** argv) {
   std::string mesh_name = "spot", env_name = "venice_sunset_1k.hdr", out_dir = ".", targets_text = "23,28,33",
-              scene_dir;
+              scene_dir, roulette_text;
   float ior = 1.472f;
   int size = 128, view = 0;
   for (int i = 1; i + 1 < argc; i += 2) {
@@ -123,10 +124,12 @@ int main(int argc, char** argv) {
     else if (a == "--out") out_dir = argv[i + 1];
     else if (a == "--scene") scene_dir = argv[i + 1];
     else if (a == "--view") view = std::atoi(argv[i + 1]);
+    else if (a == "--roulette") roulette_text = argv[i + 1];
     else {
       std::fprintf(stderr,
                    "equal_quality: unknown option %s\nusage: equal_quality [--mesh spot] [--ior 1.472] "
-                   "[--env venice_sunset_1k.hdr] [--size 128] [--targets 23,28,33] [--out DIR]\n",
+                   "[--env venice_sunset_1k.hdr] [--size 128] [--targets 23,28,33] [--scene DIR] [--view K] "
+                   "[--roulette T1,T2] [--out DIR]\n",
                    a.c_str());
       return 2;
     }
@@ -229,6 +232,13 @@ int main(int argc, char** argv) {
   roulette.trace.prune_throughput = 0.01f;
   roulette.trace.roulette = true;
   uniform_curve("roulette", "depth 16, Russian roulette below 0.01, uniform n x n", roulette);
+  for (const double threshold : parse_list(roulette_text)) {
+    dr::PassOptions o = roulette;
+    o.trace.prune_throughput = float(threshold);
+    char name[32];
+    std::snprintf(name, sizeof name, "roulette %g", threshold);
+    uniform_curve(name, std::string("depth 16, Russian roulette below ") + (name + 9) + ", uniform n x n", o);
+  }
   dr::PassOptions path = roulette;
   path.trace.tree_depth = 2;
   uniform_curve("roulette+path", "as roulette, the Fresnel tree for 2 interactions, one sampled branch beyond", path);
