@@ -13,6 +13,7 @@
 // horse/absorption/*: primal and gradient at stage 2's training settings for
 // each absorption model (none, homogeneous, grids of 4³ and 16³), as ratios
 // to the clear primal.
+#include <algorithm>
 #include <cstdint>
 #include <cstdio>
 #include <map>
@@ -157,13 +158,14 @@ void gradient(benchmark::State& state, std::string name, dr::TraceSettings ts, A
   ad::Tape<float> tape(1 << 22);
   std::vector<ad::LeafRecord> log(1 << 18);
   ad::ParamReader<V> reader(&params, &tape, log.data(), std::int32_t(log.size()));
-  double nodes = 0, rays = 0, overflow = 0;
+  double nodes = 0, rays = 0, overflow = 0, most = 0;
   for (auto _ : state)
     for (const auto& r : w.rays) {
       tape.reset();
       reader.clear();
       const difftrans::Vec3<V> L = dr::trace<V>(view, w.scene->accel(), reader, r.origin, r.direction, ts);
       nodes += tape.size();
+      most = std::max(most, double(tape.size()));
       rays += 1;
       if (tape.overflowed() || reader.overflowed()) {
         ++overflow;
@@ -177,6 +179,38 @@ void gradient(benchmark::State& state, std::string name, dr::TraceSettings ts, A
   grad.fold_normals(*w.scene);  // once per sweep, as render_gradient does
   state.SetItemsProcessed(state.iterations() * std::int64_t(w.rays.size()));
   state.counters["tape_bytes_per_ray"] = nodes / rays * double(ad::Tape<float>::bytes_per_node);
+  state.counters["tape_bytes_max"] = most * double(ad::Tape<float>::bytes_per_node);
+  state.counters["overflowed_rays"] = overflow;
+}
+
+// The streamed reverse mode (trace_streamed): the gradient swept back branch
+// by branch; tape_bytes_* count each ray's peak.
+void gradient_streamed(benchmark::State& state, std::string name, dr::TraceSettings ts, Absorption absorption) {
+  using V = ad::Var<float>;
+  Workload& w = workload(name);
+  set_absorption(*w.scene, absorption);
+  const dr::SceneView view = w.scene->view(true, true);
+  ad::ParamSet params = w.scene->params();
+  dr::SceneGradient grad(*w.scene);
+  grad.attach(params);
+  ad::Tape<float> tape(1 << 22);
+  std::vector<ad::LeafRecord> log(1 << 18);
+  ad::ParamReader<V> reader(&params, &tape, log.data(), std::int32_t(log.size()));
+  double nodes = 0, rays = 0, overflow = 0, most = 0;
+  const difftrans::Vec3<float> adjoint(1.0f);
+  for (auto _ : state)
+    for (const auto& r : w.rays) {
+      benchmark::DoNotOptimize(dr::trace_streamed<float>(view, w.scene->accel(), reader, r.origin, r.direction,
+                                                         adjoint, ts));
+      nodes += tape.peak();
+      most = std::max(most, double(tape.peak()));
+      rays += 1;
+      if (tape.overflowed() || reader.overflowed()) ++overflow;
+    }
+  grad.fold_normals(*w.scene);
+  state.SetItemsProcessed(state.iterations() * std::int64_t(w.rays.size()));
+  state.counters["tape_bytes_per_ray"] = nodes / rays * double(ad::Tape<float>::bytes_per_node);
+  state.counters["tape_bytes_max"] = most * double(ad::Tape<float>::bytes_per_node);
   state.counters["overflowed_rays"] = overflow;
 }
 
@@ -235,5 +269,34 @@ int main(int argc, char** argv) {
         ->Unit(benchmark::kMillisecond);
   }
   groups.emplace_back("horse/absorption/", "horse/absorption/none/primal");
+  // The tape of one camera ray at depth 16 (counters tape_bytes_per_ray and
+  // tape_bytes_max): the whole Fresnel tree, Russian roulette below 0.01, and
+  // stage 2's training settings; times relative to the whole tree's primal.
+  for (const std::string name : {"spot", "bunny", "horse"}) {
+    const std::string prefix = name + "/d16/";
+    dr::TraceSettings roulette = settings(16);
+    roulette.roulette = true;
+    roulette.prune_throughput = 0.01f;
+    benchmark::RegisterBenchmark((prefix + "primal").c_str(), primal, name, settings(16), Absorption::unchanged)
+        ->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark((prefix + "gradient").c_str(), gradient, name, settings(16), Absorption::unchanged)
+        ->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark((prefix + "gradient_roulette").c_str(), gradient, name, roulette,
+                                 Absorption::unchanged)
+        ->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark((prefix + "gradient_training").c_str(), gradient, name, training_settings(),
+                                 Absorption::unchanged)
+        ->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark((prefix + "streamed").c_str(), gradient_streamed, name, settings(16),
+                                 Absorption::unchanged)
+        ->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark((prefix + "streamed_roulette").c_str(), gradient_streamed, name, roulette,
+                                 Absorption::unchanged)
+        ->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark((prefix + "streamed_training").c_str(), gradient_streamed, name, training_settings(),
+                                 Absorption::unchanged)
+        ->Unit(benchmark::kMillisecond);
+    groups.emplace_back(prefix, prefix + "primal");
+  }
   return dt_bench::run_with_ratios(argc, argv, groups);
 }

@@ -77,3 +77,30 @@ TEST_CASE("log overflow is reported; scatter from many threads adds up") {
   for (auto& th : threads) th.join();
   CHECK(g[0] == 16000.0f);
 }
+
+TEST_CASE("scatter_from scatters the leaves read from a tape node on, and keeps the earlier ones") {
+  float x[2] = {2.0f, 3.0f}, g[2] = {0.0f, 0.0f};
+  ad::ParamSet set;
+  set.buffers[0].values = x;
+  set.buffers[0].size = 2;
+  set.buffers[0].gradient = g;
+  ad::Tape<float> tape(64);
+  tape.clear_adjoints_from(1);
+  ad::LeafRecord log[8];
+  ad::ParamReader<ad::Var<float>> rev(&set, &tape, log, 8);
+  const auto a = rev.read(0, 0);
+  const std::int32_t mark = tape.mark();
+  const auto b = rev.read(0, 1);
+  tape.seed(a * b, 1.0f);  // d/da = b = 3, d/db = a = 2
+  tape.propagate(tape.size() - 1, mark);
+  rev.scatter_from(mark);
+  CHECK(rev.size() == 1);  // a's record stays
+  CHECK(g[0] == 0.0f);
+  CHECK(g[1] == 2.0f);
+  tape.clear_adjoints_from(mark);
+  tape.truncate(mark);
+  tape.propagate(mark - 1, 1);
+  rev.scatter_from(1);
+  CHECK(rev.size() == 0);
+  CHECK(g[0] == 3.0f);
+}

@@ -98,6 +98,31 @@ SceneGradient loss_gradient(const HostScene& s, const std::vector<TestRay>& rays
   return g;
 }
 
+// The same gradient by the streamed reverse mode (trace_streamed); also the
+// largest tape it held and the largest full tape of trace<Var> on the same rays.
+SceneGradient streamed_gradient(const HostScene& s, const std::vector<TestRay>& rays, const Vec3d& w,
+                                const TraceSettings& ts, std::vector<Vec3d>* radiance, std::int32_t* peak) {
+  using V = ad::Var<double>;
+  SceneGradient g(s);
+  ad::ParamSet params = s.params();
+  g.attach(params);
+  ad::Tape<double> tape(1 << 20);
+  std::vector<ad::LeafRecord> log(1 << 16);
+  ad::ParamReader<V> reader(&params, &tape, log.data(), std::int32_t(log.size()));
+  *peak = 0;
+  for (const auto& r : rays) {
+    const Vec3<double> L =
+        difftrans::render::trace_streamed<double>(s.view(true, true), s.accel(), reader, r.o, r.d, w, ts);
+    REQUIRE_FALSE(tape.overflowed());
+    REQUIRE_FALSE(reader.overflowed());
+    CHECK(reader.size() == 0);  // every leaf scattered
+    radiance->push_back(Vec3d(L));
+    *peak = std::max(*peak, tape.peak());
+  }
+  g.fold_normals(s);
+  return g;
+}
+
 // The entries of `grad` with the largest magnitude.
 std::vector<std::size_t> largest(const std::vector<float>& grad, std::size_t count) {
   std::vector<std::size_t> idx(grad.size());
@@ -428,6 +453,111 @@ TEST_CASE("forward and reverse mode agree") {
     for (int c = 0; c < 3; ++c) forward += w[c] * L[c].grad[0];
   }
   CHECK(forward == doctest::Approx(reverse).epsilon(1e-5));
+}
+
+TEST_CASE("streamed reverse mode: the same gradient on a tape bounded by the depth") {
+  HostScene s = make_scene(make_icosphere(0.5f, 2), 1.5f);
+  smooth_environment(s);
+  const auto rays = rays_towards_centre(Vec3f(0.2f, 0.4f, 3.0f), 0.45f, 12);
+  const Vec3d w(0.7, 1.0, 1.3);
+  TraceSettings tree;
+  tree.max_depth = 10;
+  TraceSettings drawn = tree;  // one path beyond 3 interactions, roulette below 0.05
+  drawn.max_depth = 16;
+  drawn.tree_depth = 3;
+  drawn.roulette = true;
+  drawn.prune_throughput = 0.05f;
+  TraceSettings main_path = tree;
+  main_path.gradient_refractions = 2;
+  struct Case {
+    const char* name;
+    TraceSettings ts;
+    int absorption;  // 0 none, 1 homogeneous, 2 grid
+  };
+  for (const Case& c : {Case{"full tree, clear", tree, 0}, Case{"full tree, homogeneous", tree, 1},
+                        Case{"full tree, grid", tree, 2}, Case{"drawn path and roulette", drawn, 2},
+                        Case{"main refraction path", main_path, 1}}) {
+    CAPTURE(c.name);
+    if (c.absorption == 1) s.set_homogeneous_absorption(Vec3f(0.5f, 1.0f, 2.0f));
+    if (c.absorption == 2) {
+      std::vector<float> raw;
+      for (int i = 0; i < 4 * 4 * 4; ++i)
+        for (int k = 0; k < 3; ++k) raw.push_back(difftrans::scene::raw_from_sigma(0.3f + 0.1f * float((i * 7 + k) % 5)));
+      s.set_grid_absorption(difftrans::Vec3i(4), Vec3f(-0.6f), Vec3f(0.6f), std::move(raw));
+    }
+    const SceneGradient full = loss_gradient(s, rays, w, c.ts);
+    std::vector<Vec3d> radiance;
+    std::int32_t peak = 0;
+    const SceneGradient streamed = streamed_gradient(s, rays, w, c.ts, &radiance, &peak);
+    // the radiance, and every gradient entry, to float rounding of the sums
+    for (std::size_t i = 0; i < rays.size(); ++i)
+      for (int k = 0; k < 3; ++k) CHECK(radiance[i][k] == doctest::Approx(trace_value<double>(s, rays[i], c.ts)[k]).epsilon(1e-12));
+    const auto same = [](const std::vector<float>& a, const std::vector<float>& b, const char* what) {
+      CAPTURE(what);
+      REQUIRE(a.size() == b.size());
+      float scale = 0.0f, worst = 0.0f;
+      for (std::size_t i = 0; i < a.size(); ++i) {
+        scale = std::max(scale, std::abs(a[i]));
+        worst = std::max(worst, std::abs(a[i] - b[i]));
+      }
+      CHECK(worst <= 1e-5f * std::max(scale, 1e-12f));
+      return scale;
+    };
+    CHECK(same(full.positions, streamed.positions, "positions") > 0.0f);
+    CHECK(same(full.ior, streamed.ior, "ior") > 0.0f);
+    same(full.environment, streamed.environment, "environment");
+    const float absorption_scale = same(full.absorption, streamed.absorption, "absorption");
+    CHECK((c.absorption == 0) == (absorption_scale == 0.0f));
+    // the whole tree's tape against the streamed tape's peak
+    std::int32_t full_peak = 0;
+    {
+      using V = ad::Var<double>;
+      ad::ParamSet params = s.params();
+      ad::Tape<double> tape(1 << 20);
+      std::vector<ad::LeafRecord> log(1 << 16);
+      ad::ParamReader<V> reader(&params, &tape, log.data(), std::int32_t(log.size()));
+      for (const auto& r : rays) {
+        tape.reset();
+        reader.clear();
+        difftrans::render::trace<V>(s.view(true, true), s.accel(), reader, r.o, r.d, c.ts);
+        full_peak = std::max(full_peak, tape.size());
+      }
+    }
+    MESSAGE(c.name, ": largest tape ", full_peak, " nodes, streamed ", peak);
+    CHECK(peak <= full_peak);  // a sphere's tree is nearly a chain: little to gain
+  }
+  SUBCASE("spot's bushy tree at depth 16: the largest tape shrinks from the tree to a path") {
+    HostScene spot = make_scene(load_normalized_mesh(std::string(DIFFTRANS_DATA_DIR) + "/meshes/spot.obj"), 1.472f);
+    smooth_environment(spot);
+    TraceSettings deep;
+    deep.max_depth = 16;
+    const auto through = rays_towards_centre(Vec3f(0.4f, 0.5f, 3.0f), 0.3f, 16);
+    const SceneGradient full = loss_gradient(spot, through, w, deep);
+    std::vector<Vec3d> radiance;
+    std::int32_t peak = 0;
+    const SceneGradient streamed = streamed_gradient(spot, through, w, deep, &radiance, &peak);
+    float scale = 0.0f, worst = 0.0f;
+    for (std::size_t i = 0; i < full.positions.size(); ++i) {
+      scale = std::max(scale, std::abs(full.positions[i]));
+      worst = std::max(worst, std::abs(full.positions[i] - streamed.positions[i]));
+    }
+    CHECK(scale > 0.0f);
+    CHECK(worst <= 1e-5f * scale);
+    std::int32_t full_peak = 0;
+    using V = ad::Var<double>;
+    ad::ParamSet params = spot.params();
+    ad::Tape<double> tape(1 << 20);
+    std::vector<ad::LeafRecord> log(1 << 16);
+    ad::ParamReader<V> reader(&params, &tape, log.data(), std::int32_t(log.size()));
+    for (const auto& r : through) {
+      tape.reset();
+      reader.clear();
+      difftrans::render::trace<V>(spot.view(true, true), spot.accel(), reader, r.o, r.d, deep);
+      full_peak = std::max(full_peak, tape.size());
+    }
+    MESSAGE("spot at depth 16: largest tape ", full_peak, " nodes, streamed ", peak);
+    CHECK(2 * peak < full_peak);
+  }
 }
 
 TEST_CASE("gradient_refractions: derivatives along the main refraction path only") {

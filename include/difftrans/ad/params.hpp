@@ -114,6 +114,20 @@ class ParamReader<Var<T>> {
     count_ = 0;
   }
 
+  // Streamed reverse mode: scatter() for the leaves recorded at tape node
+  // `mark` or later only (a suffix of the log: leaves are logged as they are
+  // recorded), which are then forgotten; the earlier ones stay.
+  DT_HOST_DEVICE void scatter_from(std::int32_t mark) {
+    std::int32_t k = count_;
+    while (k > 0 && log_[k - 1].node >= mark) {
+      const LeafRecord& r = log_[--k];
+      float* g = set_->buffers[r.buffer].gradient;
+      const T a = tape_->adjoint(Var<T>(T(0), r.node, tape_));
+      if (g && a != T(0)) detail::atomic_add(g + r.index, float(a));
+    }
+    count_ = k;
+  }
+
   // After the sweep: Σ adjoint² over the logged leaves of one buffer (the
   // squared norm of this record's gradient w.r.t. that buffer).
   DT_HOST_DEVICE T adjoint_norm2(int buffer) const {

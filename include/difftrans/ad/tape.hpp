@@ -109,15 +109,24 @@ class Tape {
     for (std::ptrdiff_t i = 0; i < size_; ++i) adjoints_[i] = T(0);
   }
   DT_HOST_DEVICE void seed(const Var<T>& y, T w) {
-    if (y.tape == this) adjoints_[y.index] += w;
+    if (y.tape == this) {
+      adjoints_[y.index] += w;
+      if (y.index >= dirty_) dirty_ = y.index + 1;
+    }
   }
   DT_HOST_DEVICE void propagate() { propagate(std::int32_t(size_ - 1)); }
-  DT_HOST_DEVICE void propagate(std::int32_t from) {
+  DT_HOST_DEVICE void propagate(std::int32_t from) { propagate(from, 1); }
+  // The sweep over the nodes from `from` down to `down_to` only: what they
+  // pass to earlier nodes is added to those nodes' adjoints, which a later
+  // sweep carries on (streamed reverse mode: render/tracer.hpp, trace_streamed).
+  DT_HOST_DEVICE void propagate(std::int32_t from, std::int32_t down_to) {
+    if (down_to < 1) down_to = 1;
+    if (from >= dirty_) dirty_ = from + 1;
     // Most nodes feed the node recorded just before them: that contribution
     // is carried in a register instead of a store and a reload, which would
     // put a store-to-load forwarding delay on the critical path of every node.
     T carry = T(0);
-    for (std::int32_t i = from; i > 0; --i) {
+    for (std::int32_t i = from; i >= down_to; --i) {
       const T g = adjoints_[i] + carry;
       const Node<T> n = nodes_[i];
       const T ca = n.da * g;
@@ -127,7 +136,23 @@ class Tape {
       adjoints_[n.b] += n.db * g;
       adjoints_[i] = g;  // last: overwrites what a self-pointing slot added (0 · inf would be NaN)
     }
+    if (down_to > 1) adjoints_[down_to - 1] += carry;  // node 0 is the sink
   }
+  // Zeroes the adjoints of the nodes from `m` on that a seed or a sweep may
+  // have touched (a streamed pass keeps every slot past its tape's end zero).
+  DT_HOST_DEVICE void clear_adjoints_from(std::int32_t m) {
+    if (m < 1) m = 1;
+    for (std::ptrdiff_t i = m; i < dirty_; ++i) adjoints_[i] = T(0);
+    if (dirty_ > m) dirty_ = m;
+  }
+  // Forgets the nodes from `m` on (their adjoints must be cleared first in a
+  // streamed pass); unlike rewind, keeps the overflow flag.
+  DT_HOST_DEVICE void truncate(std::int32_t m) {
+    if (size_ > peak_) peak_ = size_;
+    if (m >= 1 && m < size_) size_ = m;
+  }
+  // The most nodes the tape held since the last reset or rewind.
+  DT_HOST_DEVICE std::int32_t peak() const { return std::int32_t(size_ > peak_ ? size_ : peak_); }
 
   // d(output)/d(x) after backward / propagate; 0 for constants and other tapes.
   DT_HOST_DEVICE T adjoint(const Var<T>& x) const {
@@ -140,6 +165,7 @@ class Tape {
   DT_HOST_DEVICE std::int32_t mark() const { return std::int32_t(size_); }
   DT_HOST_DEVICE void rewind(std::int32_t m) {
     size_ = m < 1 ? 1 : m;
+    peak_ = size_;
     overflow_ = false;
     nodes_[0] = Node<T>{0, 0, T(0), T(0)};
     adjoints_[0] = T(0);
@@ -155,6 +181,7 @@ class Tape {
     nodes_ = nodes;
     adjoints_ = adjoints;
     capacity_ = capacity;
+    dirty_ = capacity;  // not yet written: the first clear_adjoints_from zeroes them all
     reset();
   }
 
@@ -165,6 +192,8 @@ class Tape {
   // alias the counters, so they stay in registers while recording.
   std::ptrdiff_t size_ = 0;
   std::ptrdiff_t capacity_ = 0;
+  std::ptrdiff_t peak_ = 0;
+  std::ptrdiff_t dirty_ = 0;  // adjoint slots from here on are zero (see clear_adjoints_from)
   bool overflow_ = false;
 };
 

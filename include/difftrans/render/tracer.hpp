@@ -89,7 +89,8 @@ template <class S>
 struct Branch {
   Vec3<S> origin, direction, weight;
   int depth;
-  std::uint32_t path;  // 1, then one bit per interaction: 0 reflected, 1 refracted
+  std::uint32_t path;    // 1, then one bit per interaction: 0 reflected, 1 refracted
+  std::int32_t mark = 0; // streamed reverse mode: the tape's length when the branch was made
 };
 
 // Origin of a ray spawned at p towards `side` (±1 along the unit geometric
@@ -177,13 +178,59 @@ DT_HOST_DEVICE inline bool carries_derivatives(const TraceSettings& settings, in
          (depth <= settings.gradient_refractions && (path & (path + 1u)) == 0u);
 }
 
+// How follow() collects what the branches bring. SumBranches: their sum, in
+// the pass's scalar (every pass but the streamed gradient).
+struct SumBranches {
+  template <class S>
+  DT_HOST_DEVICE void made(Branch<S>&) const {}
+  template <class S>
+  DT_HOST_DEVICE void taken(const Branch<S>&) const {}
+  template <class S>
+  DT_HOST_DEVICE void add(Vec3<S>& radiance, const Vec3<S>& light) const {
+    radiance += light;
+  }
+};
+
+// Streamed reverse mode, where the adjoint of the camera ray's radiance is
+// known before it is traced: each branch's light is seeded with that adjoint
+// as it arrives (the radiance is a sum), and when the loop takes a branch from
+// its stack, everything recorded since that branch was made — the finished
+// subtrees of its later siblings — is swept back, its leaves scattered into
+// the gradient buffers, and cut from the tape. The tape then holds the path
+// from the camera to the branch being traced and the pending siblings'
+// weights: bounded by the depth, not by the size of the tree.
+template <class T>
+struct StreamBranches {
+  ad::ParamReader<ad::Var<T>>* reader;
+  Vec3<T> adjoint;
+  DT_HOST_DEVICE void made(Branch<ad::Var<T>>& b) const { b.mark = reader->tape()->mark(); }
+  DT_HOST_DEVICE void taken(const Branch<ad::Var<T>>& b) const { settle(b.mark); }
+  DT_HOST_DEVICE void add(Vec3<ad::Var<T>>& radiance, const Vec3<ad::Var<T>>& light) const {
+    ad::Tape<T>* tape = reader->tape();
+    for (int c = 0; c < 3; ++c) {
+      tape->seed(light[c], adjoint[c]);
+      radiance[c] += ad::Var<T>(light[c].value);  // the value only: its derivatives are on their way
+    }
+  }
+  // Sweeps back the nodes recorded from `mark` on, scatters their leaves and cuts them.
+  DT_HOST_DEVICE void settle(std::int32_t mark) const {
+    ad::Tape<T>* tape = reader->tape();
+    if (tape->size() <= mark) return;
+    tape->propagate(tape->size() - 1, mark);
+    reader->scatter_from(mark);
+    tape->clear_adjoints_from(mark);
+    tape->truncate(mark);
+  }
+};
+
 // The radiance the branch `root` brings to the camera: the branch and every
 // branch it spawns, depth first (the tracer's loop). ray_hash: the camera
-// ray's (camera_ray_hash), for the drawn and roulette choices; eta: the IoR.
-template <class S, class Accel, class Reader, class Escape>
+// ray's (camera_ray_hash), for the drawn and roulette choices; eta: the IoR;
+// collect: SumBranches or StreamBranches.
+template <class S, class Accel, class Reader, class Escape, class Collect = SumBranches>
 DT_HOST_DEVICE Vec3<S> follow(const SceneView& scene, const Accel& accel, Reader& reader, const Branch<S>& root,
                               const S& eta, std::uint64_t ray_hash, const TraceSettings& settings, TraceStats& local,
-                              const Escape& escape) {
+                              const Escape& escape, const Collect& collect = Collect{}) {
   using T = ad::scalar_t<S>;
   const int max_depth = settings.max_depth < max_trace_depth ? settings.max_depth : max_trace_depth;
   const bool absorbing = scene.absorption.kind != scene::AbsorptionKind::none;
@@ -195,11 +242,12 @@ DT_HOST_DEVICE Vec3<S> follow(const SceneView& scene, const Accel& accel, Reader
 
   while (top > 0) {
     const Branch<S> b = stack[--top];
+    collect.taken(b);
     const Vec3f o = value_of(b.origin), d = value_of(b.direction);
     ++local.segments;
     const auto h = accel.intersect(o, d, 0.0f, 3.4e38f);
     if (!h.hit()) {
-      radiance += b.weight * escape(reader, scene, b.origin, b.direction);
+      collect.add(radiance, b.weight * escape(reader, scene, b.origin, b.direction));
       continue;
     }
     ++local.hits;
@@ -261,18 +309,20 @@ DT_HOST_DEVICE Vec3<S> follow(const SceneView& scene, const Accel& accel, Reader
         w = w * S(T(1) / survive);
       }
       const float side = child == 0 ? incoming_side : -incoming_side;
-      const Branch<S> next{offset_origin(p, ng, side), child == 0 ? ev.wr : ev.wt, w, b.depth + 1,
-                           (b.path << 1) | std::uint32_t(child)};
+      Branch<S> next{offset_origin(p, ng, side), child == 0 ? ev.wr : ev.wt, w, b.depth + 1,
+                     (b.path << 1) | std::uint32_t(child)};
       if constexpr (ad::is_ad_v<S>) {
         if (!carries_derivatives(settings, next.depth, next.path)) {
           // a constant: its whole subtree in plain floating point, off the tape
           ad::ParamReader<T> values(reader.params());
           const Branch<T> plain{value_of(next.origin), value_of(next.direction), value_of(next.weight), next.depth,
                                 next.path};
-          radiance += lift<S>(follow<T>(scene, accel, values, plain, value_of(eta), ray_hash, settings, local, escape));
+          collect.add(radiance,
+                      lift<S>(follow<T>(scene, accel, values, plain, value_of(eta), ray_hash, settings, local, escape)));
           continue;
         }
       }
+      collect.made(next);
       stack[top++] = next;
     }
   }
@@ -298,6 +348,37 @@ DT_HOST_DEVICE Vec3<S> trace(const SceneView& scene, const Accel& accel, Reader&
   const Vec3<S> radiance = detail::follow<S>(scene, accel, reader, root, eta, ray_hash, settings, local, escape);
   if (stats) stats->add(local);
   return radiance;
+}
+
+// Streamed reverse mode: the gradient of adjoint · L(ray) added into the
+// buffers of `reader`'s parameter set as the tree is traced (StreamBranches),
+// with a tape bounded by the depth instead of the tree; returns the radiance
+// L (values). The adjoint must be known before tracing (a loss gradient given
+// per pixel; a loss of the pixel's own value needs a primal trace first).
+// Equal to trace<Var<T>> + seed + propagate + scatter up to the order of
+// float additions. The tape's peak() says how long it grew.
+template <class T, class Accel, class Escape = DistantEscape>
+Vec3<T> trace_streamed(const SceneView& scene, const Accel& accel, ad::ParamReader<ad::Var<T>>& reader,
+                       const Vec3f& origin, const Vec3f& direction, const Vec3<T>& adjoint,
+                       const TraceSettings& settings, TraceStats* stats = nullptr, const Escape& escape = Escape{}) {
+  using S = ad::Var<T>;
+  ad::Tape<T>* tape = reader.tape();
+  tape->reset();
+  tape->clear_adjoints_from(1);
+  reader.clear();
+  TraceStats local;
+  const int max_depth = settings.max_depth < max_trace_depth ? settings.max_depth : max_trace_depth;
+  const S eta = ad::load<S>(reader, scene.ior, 0);
+  const std::uint64_t ray_hash =
+      settings.tree_depth < max_depth || settings.roulette ? detail::camera_ray_hash(origin, direction) : 0u;
+  const detail::StreamBranches<T> collect{&reader, adjoint};
+  detail::Branch<S> root{lift<S>(origin), lift<S>(direction), Vec3<S>(S(1), S(1), S(1)), 0, 1u};
+  collect.made(root);
+  const Vec3<S> radiance =
+      detail::follow<S>(scene, accel, reader, root, eta, ray_hash, settings, local, escape, collect);
+  collect.settle(1);  // what is left: the root's segment and the IoR
+  if (stats) stats->add(local);
+  return Vec3<T>(radiance.x.value, radiance.y.value, radiance.z.value);
 }
 
 }  // namespace difftrans::render
