@@ -106,7 +106,7 @@ TEST_CASE("tape sizes are what a per-ray budget can rely on") {
 TEST_CASE("a sweep in pieces: the later nodes first, cut, the slots reused, then the rest") {
   // f(x, y) = 3 x² + x y (recorded first: x², then the rest after a mark)
   Tape<double> tape(64);
-  tape.clear_adjoints_from(1);  // a streamed pass starts with zero slots
+  tape.zero_on_push(true);  // a streamed pass: each slot starts at zero
   const auto x = tape.variable(1.5), y = tape.variable(-2.0);
   const auto x2 = x * x;
   const std::int32_t mark = tape.mark();
@@ -117,16 +117,14 @@ TEST_CASE("a sweep in pieces: the later nodes first, cut, the slots reused, then
   CHECK(tape.adjoint(y) == 1.5);
   CHECK(tape.adjoint(x) == -2.0);         // from x y only, so far
   const std::int32_t grown = tape.size();
-  tape.clear_adjoints_from(mark);
   tape.truncate(mark);
   CHECK(tape.size() == mark);
   CHECK(tape.peak() == grown);
   // a second piece on the reused slots: g = x² (1 + y), seeded with 2
   const auto g = x2 * (1.0 + y);
-  CHECK(tape.adjoint(g) == 0.0);  // its slot was cleared
+  CHECK(tape.adjoint(g) == 0.0);  // its slot was zeroed as it was recorded
   tape.seed(g, 2.0);
   tape.propagate(tape.size() - 1, mark);
-  tape.clear_adjoints_from(mark);
   tape.truncate(mark);
   // the rest: x² and the leaves; the total is the gradient of f + 2 g
   tape.propagate(mark - 1, 1);

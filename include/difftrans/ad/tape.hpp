@@ -85,6 +85,7 @@ class Tape {
       return 0;
     }
     nodes_[size_] = Node<T>{a, b, da, db};
+    if (zero_on_push_) adjoints_[size_] = T(0);
     return std::int32_t(size_++);
   }
   // One parent; the second slot points at the new node itself.
@@ -109,10 +110,7 @@ class Tape {
     for (std::ptrdiff_t i = 0; i < size_; ++i) adjoints_[i] = T(0);
   }
   DT_HOST_DEVICE void seed(const Var<T>& y, T w) {
-    if (y.tape == this) {
-      adjoints_[y.index] += w;
-      if (y.index >= dirty_) dirty_ = y.index + 1;
-    }
+    if (y.tape == this) adjoints_[y.index] += w;
   }
   DT_HOST_DEVICE void propagate() { propagate(std::int32_t(size_ - 1)); }
   DT_HOST_DEVICE void propagate(std::int32_t from) { propagate(from, 1); }
@@ -121,7 +119,6 @@ class Tape {
   // sweep carries on (streamed reverse mode: render/tracer.hpp, trace_streamed).
   DT_HOST_DEVICE void propagate(std::int32_t from, std::int32_t down_to) {
     if (down_to < 1) down_to = 1;
-    if (from >= dirty_) dirty_ = from + 1;
     // Most nodes feed the node recorded just before them: that contribution
     // is carried in a register instead of a store and a reload, which would
     // put a store-to-load forwarding delay on the critical path of every node.
@@ -138,15 +135,11 @@ class Tape {
     }
     if (down_to > 1) adjoints_[down_to - 1] += carry;  // node 0 is the sink
   }
-  // Zeroes the adjoints of the nodes from `m` on that a seed or a sweep may
-  // have touched (a streamed pass keeps every slot past its tape's end zero).
-  DT_HOST_DEVICE void clear_adjoints_from(std::int32_t m) {
-    if (m < 1) m = 1;
-    for (std::ptrdiff_t i = m; i < dirty_; ++i) adjoints_[i] = T(0);
-    if (dirty_ > m) dirty_ = m;
-  }
-  // Forgets the nodes from `m` on (their adjoints must be cleared first in a
-  // streamed pass); unlike rewind, keeps the overflow flag.
+  // Streamed reverse mode: each node's adjoint starts at zero as it is
+  // recorded (seeds and sweeps then add to it while later nodes are swept
+  // back and cut), instead of zero_adjoints() before one sweep.
+  DT_HOST_DEVICE void zero_on_push(bool on) { zero_on_push_ = on; }
+  // Forgets the nodes from `m` on; unlike rewind, keeps the overflow flag.
   DT_HOST_DEVICE void truncate(std::int32_t m) {
     if (size_ > peak_) peak_ = size_;
     if (m >= 1 && m < size_) size_ = m;
@@ -181,7 +174,6 @@ class Tape {
     nodes_ = nodes;
     adjoints_ = adjoints;
     capacity_ = capacity;
-    dirty_ = capacity;  // not yet written: the first clear_adjoints_from zeroes them all
     reset();
   }
 
@@ -193,8 +185,8 @@ class Tape {
   std::ptrdiff_t size_ = 0;
   std::ptrdiff_t capacity_ = 0;
   std::ptrdiff_t peak_ = 0;
-  std::ptrdiff_t dirty_ = 0;  // adjoint slots from here on are zero (see clear_adjoints_from)
   bool overflow_ = false;
+  bool zero_on_push_ = false;
 };
 
 template <class T>

@@ -239,7 +239,9 @@ inline ImageDerivative render_derivative(const DeviceScene& ds, const scene::Cam
 // (default) cuts them from one device buffer (opt.tape_capacity nodes per
 // ray; pixels run in waves of as many threads as opt.tape_memory holds);
 // otherwise each thread keeps a tape of LocalTapeCapacity nodes in its local
-// memory (GradientPixel). Rays that overflow are dropped and counted in stats.
+// memory (GradientPixel). The trace is streamed (render::trace_streamed): a
+// tape holds one path and the pending branches, not the tree. Rays that
+// overflow lose part of their gradient and are counted in stats.
 template <int LocalTapeCapacity = 0, int LocalLogCapacity = 512>
 std::vector<float> render_gradient(const DeviceScene& ds, const scene::Camera& cam, const float* pixel_adjoint,
                                    render::SceneGradient& grad, const PassOptions& opt = {},

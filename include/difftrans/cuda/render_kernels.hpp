@@ -33,8 +33,8 @@ struct PixelJob {
 enum PixelCounter : int {
   counter_segments = 0,  // rays sent to the BVH
   counter_hits = 1,      // surface interactions
-  counter_overflow = 2,  // Var: rays whose tape or leaf log overflowed (gradient dropped)
-  counter_max_tape = 3,  // Var: largest tape (nodes) of any ray
+  counter_overflow = 2,  // Var: rays whose tape or leaf log overflowed (part of their gradient lost)
+  counter_max_tape = 3,  // Var: largest tape (nodes) of any ray (its peak in the streamed trace)
   counter_count = 4,
 };
 
@@ -111,10 +111,12 @@ struct RenderPixel {
 
 namespace detail {
 
-// One pixel in reverse mode on the given tape and leaf log: per sample,
-// record, seed with w · dLoss/dpixel, propagate, scatter the leaves' adjoints
-// into the gradient buffers (atomic adds). A ray whose tape or log overflows
-// contributes no gradient and is counted. Writes the image if asked.
+// One pixel in reverse mode on the given tape and leaf log: per sample, the
+// streamed trace (render::trace_streamed) with w · dLoss/dpixel as the
+// adjoint, which scatters the leaves' adjoints into the gradient buffers
+// (atomic adds) as the tree is traced, on a tape bounded by the depth. A ray
+// whose tape or log overflows has lost part of its gradient and is counted.
+// Writes the image if asked.
 DT_HOST_DEVICE inline void gradient_pixel(const PixelJob& job, int pix, ad::Tape<float>& tape,
                                           ad::LeafRecord* log, std::int32_t log_capacity) {
   using V = ad::Var<float>;
@@ -123,20 +125,11 @@ DT_HOST_DEVICE inline void gradient_pixel(const PixelJob& job, int pix, ad::Tape
   float value[3] = {0.0f, 0.0f, 0.0f};
   const float* a = job.pixel_adjoint + 3 * std::int64_t(pix);
   for_each_pixel_sample(job.camera, job.samples_per_axis, pix, [&](const Vec3f& o, const Vec3f& d, float w) {
-    tape.reset();
-    reader.clear();
-    const Vec3<V> L = render::trace<V>(job.scene, job.bvh, reader, o, d, job.trace, &st);
-    for (int c = 0; c < 3; ++c) value[c] += w * L[c].value;
-    if (job.counters) counter_max(job.counters + counter_max_tape, std::uint32_t(tape.size()));
-    if (tape.overflowed() || reader.overflowed()) {
-      if (job.counters) counter_add(job.counters + counter_overflow, 1u);
-      reader.clear();
-      return;
-    }
-    tape.zero_adjoints();
-    for (int c = 0; c < 3; ++c) tape.seed(L[c], w * a[c]);
-    tape.propagate();
-    reader.scatter();
+    const Vec3f adjoint(w * a[0], w * a[1], w * a[2]);
+    const Vec3f L = render::trace_streamed<float>(job.scene, job.bvh, reader, o, d, adjoint, job.trace, &st);
+    for (int c = 0; c < 3; ++c) value[c] += w * L[c];
+    if (job.counters) counter_max(job.counters + counter_max_tape, std::uint32_t(tape.peak()));
+    if ((tape.overflowed() || reader.overflowed()) && job.counters) counter_add(job.counters + counter_overflow, 1u);
   });
   if (job.image)
     for (int c = 0; c < 3; ++c) job.image[3 * std::int64_t(pix) + c] = value[c];

@@ -218,7 +218,6 @@ struct StreamBranches {
     if (tape->size() <= mark) return;
     tape->propagate(tape->size() - 1, mark);
     reader->scatter_from(mark);
-    tape->clear_adjoints_from(mark);
     tape->truncate(mark);
   }
 };
@@ -356,15 +355,18 @@ DT_HOST_DEVICE Vec3<S> trace(const SceneView& scene, const Accel& accel, Reader&
 // L (values). The adjoint must be known before tracing (a loss gradient given
 // per pixel; a loss of the pixel's own value needs a primal trace first).
 // Equal to trace<Var<T>> + seed + propagate + scatter up to the order of
-// float additions. The tape's peak() says how long it grew.
+// float additions. The tape's peak() says how long it grew; an overflow of
+// the tape or the leaf log loses part of the ray's gradient (the caller
+// checks overflowed()).
 template <class T, class Accel, class Escape = DistantEscape>
-Vec3<T> trace_streamed(const SceneView& scene, const Accel& accel, ad::ParamReader<ad::Var<T>>& reader,
-                       const Vec3f& origin, const Vec3f& direction, const Vec3<T>& adjoint,
-                       const TraceSettings& settings, TraceStats* stats = nullptr, const Escape& escape = Escape{}) {
+DT_HOST_DEVICE Vec3<T> trace_streamed(const SceneView& scene, const Accel& accel, ad::ParamReader<ad::Var<T>>& reader,
+                                      const Vec3f& origin, const Vec3f& direction, const Vec3<T>& adjoint,
+                                      const TraceSettings& settings, TraceStats* stats = nullptr,
+                                      const Escape& escape = Escape{}) {
   using S = ad::Var<T>;
   ad::Tape<T>* tape = reader.tape();
   tape->reset();
-  tape->clear_adjoints_from(1);
+  tape->zero_on_push(true);
   reader.clear();
   TraceStats local;
   const int max_depth = settings.max_depth < max_trace_depth ? settings.max_depth : max_trace_depth;
@@ -377,6 +379,7 @@ Vec3<T> trace_streamed(const SceneView& scene, const Accel& accel, ad::ParamRead
   const Vec3<S> radiance =
       detail::follow<S>(scene, accel, reader, root, eta, ray_hash, settings, local, escape, collect);
   collect.settle(1);  // what is left: the root's segment and the IoR
+  tape->zero_on_push(false);
   if (stats) stats->add(local);
   return Vec3<T>(radiance.x.value, radiance.y.value, radiance.z.value);
 }
