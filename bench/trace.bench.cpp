@@ -12,7 +12,9 @@
 // Targets: primal at depth 4 within 2x Embree; gradient within 4x primal.
 // horse/absorption/*: primal and gradient at stage 2's training settings for
 // each absorption model (none, homogeneous, grids of 4³ and 16³), as ratios
-// to the clear primal.
+// to the clear primal. */d16/*: depth 16, the tape of a camera ray (mean and
+// largest) with the whole tape and streamed (render::trace_streamed), for
+// the whole tree, roulette below 0.01 and stage 2's training settings.
 #include <algorithm>
 #include <cstdint>
 #include <cstdio>
@@ -147,7 +149,11 @@ void primal(benchmark::State& state, std::string name, dr::TraceSettings ts, Abs
   state.SetItemsProcessed(state.iterations() * std::int64_t(w.rays.size()));
 }
 
-void gradient(benchmark::State& state, std::string name, dr::TraceSettings ts, Absorption absorption) {
+// streamed: trace_streamed, the gradient swept back branch by branch as the
+// tree is traced (tape_bytes_* count each ray's peak); else trace<Var> with
+// the whole tape, then one sweep.
+void gradient(benchmark::State& state, std::string name, dr::TraceSettings ts, Absorption absorption,
+              bool streamed) {
   using V = ad::Var<float>;
   Workload& w = workload(name);
   set_absorption(*w.scene, absorption);
@@ -159,8 +165,18 @@ void gradient(benchmark::State& state, std::string name, dr::TraceSettings ts, A
   std::vector<ad::LeafRecord> log(1 << 18);
   ad::ParamReader<V> reader(&params, &tape, log.data(), std::int32_t(log.size()));
   double nodes = 0, rays = 0, overflow = 0, most = 0;
+  const difftrans::Vec3<float> adjoint(1.0f);
   for (auto _ : state)
     for (const auto& r : w.rays) {
+      if (streamed) {
+        benchmark::DoNotOptimize(
+            dr::trace_streamed<float>(view, w.scene->accel(), reader, r.origin, r.direction, adjoint, ts));
+        nodes += tape.peak();
+        most = std::max(most, double(tape.peak()));
+        rays += 1;
+        if (tape.overflowed() || reader.overflowed()) ++overflow;
+        continue;
+      }
       tape.reset();
       reader.clear();
       const difftrans::Vec3<V> L = dr::trace<V>(view, w.scene->accel(), reader, r.origin, r.direction, ts);
@@ -177,37 +193,6 @@ void gradient(benchmark::State& state, std::string name, dr::TraceSettings ts, A
       reader.scatter();
     }
   grad.fold_normals(*w.scene);  // once per sweep, as render_gradient does
-  state.SetItemsProcessed(state.iterations() * std::int64_t(w.rays.size()));
-  state.counters["tape_bytes_per_ray"] = nodes / rays * double(ad::Tape<float>::bytes_per_node);
-  state.counters["tape_bytes_max"] = most * double(ad::Tape<float>::bytes_per_node);
-  state.counters["overflowed_rays"] = overflow;
-}
-
-// The streamed reverse mode (trace_streamed): the gradient swept back branch
-// by branch; tape_bytes_* count each ray's peak.
-void gradient_streamed(benchmark::State& state, std::string name, dr::TraceSettings ts, Absorption absorption) {
-  using V = ad::Var<float>;
-  Workload& w = workload(name);
-  set_absorption(*w.scene, absorption);
-  const dr::SceneView view = w.scene->view(true, true);
-  ad::ParamSet params = w.scene->params();
-  dr::SceneGradient grad(*w.scene);
-  grad.attach(params);
-  ad::Tape<float> tape(1 << 22);
-  std::vector<ad::LeafRecord> log(1 << 18);
-  ad::ParamReader<V> reader(&params, &tape, log.data(), std::int32_t(log.size()));
-  double nodes = 0, rays = 0, overflow = 0, most = 0;
-  const difftrans::Vec3<float> adjoint(1.0f);
-  for (auto _ : state)
-    for (const auto& r : w.rays) {
-      benchmark::DoNotOptimize(dr::trace_streamed<float>(view, w.scene->accel(), reader, r.origin, r.direction,
-                                                         adjoint, ts));
-      nodes += tape.peak();
-      most = std::max(most, double(tape.peak()));
-      rays += 1;
-      if (tape.overflowed() || reader.overflowed()) ++overflow;
-    }
-  grad.fold_normals(*w.scene);
   state.SetItemsProcessed(state.iterations() * std::int64_t(w.rays.size()));
   state.counters["tape_bytes_per_ray"] = nodes / rays * double(ad::Tape<float>::bytes_per_node);
   state.counters["tape_bytes_max"] = most * double(ad::Tape<float>::bytes_per_node);
@@ -248,7 +233,7 @@ int main(int argc, char** argv) {
       benchmark::RegisterBenchmark((prefix + "primal").c_str(), primal, name, settings(depth), Absorption::unchanged)
           ->Unit(benchmark::kMillisecond);
       benchmark::RegisterBenchmark((prefix + "gradient").c_str(), gradient, name, settings(depth),
-                                   Absorption::unchanged)
+                                   Absorption::unchanged, false)
           ->Unit(benchmark::kMillisecond);
       benchmark::RegisterBenchmark((prefix + "dual_ior").c_str(), dual_ior, name, depth)->Unit(benchmark::kMillisecond);
       groups.emplace_back(prefix, prefix + baseline);
@@ -265,7 +250,7 @@ int main(int argc, char** argv) {
     const std::string prefix = std::string("horse/absorption/") + label + "/";
     benchmark::RegisterBenchmark((prefix + "primal").c_str(), primal, "horse", training_settings(), model)
         ->Unit(benchmark::kMillisecond);
-    benchmark::RegisterBenchmark((prefix + "gradient").c_str(), gradient, "horse", training_settings(), model)
+    benchmark::RegisterBenchmark((prefix + "gradient").c_str(), gradient, "horse", training_settings(), model, false)
         ->Unit(benchmark::kMillisecond);
   }
   groups.emplace_back("horse/absorption/", "horse/absorption/none/primal");
@@ -279,22 +264,23 @@ int main(int argc, char** argv) {
     roulette.prune_throughput = 0.01f;
     benchmark::RegisterBenchmark((prefix + "primal").c_str(), primal, name, settings(16), Absorption::unchanged)
         ->Unit(benchmark::kMillisecond);
-    benchmark::RegisterBenchmark((prefix + "gradient").c_str(), gradient, name, settings(16), Absorption::unchanged)
+    benchmark::RegisterBenchmark((prefix + "gradient").c_str(), gradient, name, settings(16), Absorption::unchanged,
+                                 false)
         ->Unit(benchmark::kMillisecond);
     benchmark::RegisterBenchmark((prefix + "gradient_roulette").c_str(), gradient, name, roulette,
-                                 Absorption::unchanged)
+                                 Absorption::unchanged, false)
         ->Unit(benchmark::kMillisecond);
     benchmark::RegisterBenchmark((prefix + "gradient_training").c_str(), gradient, name, training_settings(),
-                                 Absorption::unchanged)
+                                 Absorption::unchanged, false)
         ->Unit(benchmark::kMillisecond);
-    benchmark::RegisterBenchmark((prefix + "streamed").c_str(), gradient_streamed, name, settings(16),
-                                 Absorption::unchanged)
+    benchmark::RegisterBenchmark((prefix + "streamed").c_str(), gradient, name, settings(16), Absorption::unchanged,
+                                 true)
         ->Unit(benchmark::kMillisecond);
-    benchmark::RegisterBenchmark((prefix + "streamed_roulette").c_str(), gradient_streamed, name, roulette,
-                                 Absorption::unchanged)
+    benchmark::RegisterBenchmark((prefix + "streamed_roulette").c_str(), gradient, name, roulette,
+                                 Absorption::unchanged, true)
         ->Unit(benchmark::kMillisecond);
-    benchmark::RegisterBenchmark((prefix + "streamed_training").c_str(), gradient_streamed, name, training_settings(),
-                                 Absorption::unchanged)
+    benchmark::RegisterBenchmark((prefix + "streamed_training").c_str(), gradient, name, training_settings(),
+                                 Absorption::unchanged, true)
         ->Unit(benchmark::kMillisecond);
     groups.emplace_back(prefix, prefix + "primal");
   }

@@ -123,6 +123,23 @@ SceneGradient streamed_gradient(const HostScene& s, const std::vector<TestRay>& 
   return g;
 }
 
+// The largest tape trace<Var> records on any of the rays (the whole tree).
+std::int32_t full_tape_peak(const HostScene& s, const std::vector<TestRay>& rays, const TraceSettings& ts) {
+  using V = ad::Var<double>;
+  ad::ParamSet params = s.params();
+  ad::Tape<double> tape(1 << 20);
+  std::vector<ad::LeafRecord> log(1 << 16);
+  ad::ParamReader<V> reader(&params, &tape, log.data(), std::int32_t(log.size()));
+  std::int32_t peak = 0;
+  for (const auto& r : rays) {
+    tape.reset();
+    reader.clear();
+    difftrans::render::trace<V>(s.view(true, true), s.accel(), reader, r.o, r.d, ts);
+    peak = std::max(peak, tape.size());
+  }
+  return peak;
+}
+
 // The entries of `grad` with the largest magnitude.
 std::vector<std::size_t> largest(const std::vector<float>& grad, std::size_t count) {
   std::vector<std::size_t> idx(grad.size());
@@ -509,20 +526,7 @@ TEST_CASE("streamed reverse mode: the same gradient on a tape bounded by the dep
     const float absorption_scale = same(full.absorption, streamed.absorption, "absorption");
     CHECK((c.absorption == 0) == (absorption_scale == 0.0f));
     // the whole tree's tape against the streamed tape's peak
-    std::int32_t full_peak = 0;
-    {
-      using V = ad::Var<double>;
-      ad::ParamSet params = s.params();
-      ad::Tape<double> tape(1 << 20);
-      std::vector<ad::LeafRecord> log(1 << 16);
-      ad::ParamReader<V> reader(&params, &tape, log.data(), std::int32_t(log.size()));
-      for (const auto& r : rays) {
-        tape.reset();
-        reader.clear();
-        difftrans::render::trace<V>(s.view(true, true), s.accel(), reader, r.o, r.d, c.ts);
-        full_peak = std::max(full_peak, tape.size());
-      }
-    }
+    const std::int32_t full_peak = full_tape_peak(s, rays, c.ts);
     MESSAGE(c.name, ": largest tape ", full_peak, " nodes, streamed ", peak);
     CHECK(peak <= full_peak);  // a sphere's tree is nearly a chain: little to gain
   }
@@ -543,18 +547,7 @@ TEST_CASE("streamed reverse mode: the same gradient on a tape bounded by the dep
     }
     CHECK(scale > 0.0f);
     CHECK(worst <= 1e-5f * scale);
-    std::int32_t full_peak = 0;
-    using V = ad::Var<double>;
-    ad::ParamSet params = spot.params();
-    ad::Tape<double> tape(1 << 20);
-    std::vector<ad::LeafRecord> log(1 << 16);
-    ad::ParamReader<V> reader(&params, &tape, log.data(), std::int32_t(log.size()));
-    for (const auto& r : through) {
-      tape.reset();
-      reader.clear();
-      difftrans::render::trace<V>(spot.view(true, true), spot.accel(), reader, r.o, r.d, deep);
-      full_peak = std::max(full_peak, tape.size());
-    }
+    const std::int32_t full_peak = full_tape_peak(spot, through, deep);
     MESSAGE("spot at depth 16: largest tape ", full_peak, " nodes, streamed ", peak);
     CHECK(2 * peak < full_peak);
   }
