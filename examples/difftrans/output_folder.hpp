@@ -151,24 +151,7 @@ class OutputDir {
   // `inputs`: files and folders the command reads, which must not lie inside
   // OUT (replacing OUT would delete them); the working directory neither.
   OutputDir(std::filesystem::path out, bool overwrite, const std::vector<std::filesystem::path>& inputs = {})
-      : final_((detail::check_folder_name(out), detail::recover_folder(out), std::move(out))), work_(final_, ".partial") {
-    namespace fs = std::filesystem;
-    std::error_code ec;
-    if (fs::exists(final_, ec)) {
-      if (!fs::is_empty(final_, ec) && !overwrite)
-        throw io::Error(final_, "exists and is not empty (pass --overwrite to replace it)");
-      const fs::path root = fs::weakly_canonical(final_, ec);
-      std::vector<fs::path> guarded = inputs;
-      guarded.push_back(fs::current_path(ec));
-      for (const auto& in : guarded) {
-        if (in.empty()) continue;
-        const fs::path p = fs::weakly_canonical(in, ec);
-        const auto rel = p.lexically_relative(root);
-        if (!rel.empty() && *rel.begin() != "..")
-          throw io::Error(final_, "refusing to replace this folder: it contains " + in.string());
-      }
-    }
-  }
+      : final_(checked(std::move(out), overwrite, inputs)), work_(final_, ".partial") {}
   ~OutputDir() {
     if (!committed_) {
       std::error_code ec;
@@ -180,6 +163,33 @@ class OutputDir {
 
   const std::filesystem::path& path() const { return work_.path(); }
   const std::filesystem::path& final_path() const { return final_; }
+
+ private:
+  // OUT, once it is known that it may be replaced (before any work folder exists)
+  static std::filesystem::path checked(std::filesystem::path out, bool overwrite,
+                                       const std::vector<std::filesystem::path>& inputs) {
+    namespace fs = std::filesystem;
+    detail::check_folder_name(out);
+    detail::recover_folder(out);
+    std::error_code ec;
+    if (fs::exists(out, ec)) {
+      if (!fs::is_empty(out, ec) && !overwrite)
+        throw io::Error(out, "exists and is not empty (pass --overwrite to replace it)");
+      const fs::path root = fs::weakly_canonical(out, ec);
+      std::vector<fs::path> guarded = inputs;
+      guarded.push_back(fs::current_path(ec));
+      for (const auto& in : guarded) {
+        if (in.empty()) continue;
+        const fs::path p = fs::weakly_canonical(in, ec);
+        const auto rel = p.lexically_relative(root);
+        if (!rel.empty() && *rel.begin() != "..")
+          throw io::Error(out, "refusing to replace this folder: it contains " + in.string());
+      }
+    }
+    return out;
+  }
+
+ public:
 
   void commit() {
     detail::replace_folder(work_.path(), final_);
@@ -207,7 +217,11 @@ class RunFolder {
     std::error_code ec;
     if (fs::exists(final_, ec)) {
       fs::copy(final_, work_.path(), fs::copy_options::recursive | fs::copy_options::copy_symlinks, ec);
-      if (ec) throw io::Error(final_, "cannot copy it into the work folder " + work_.path().string() + ": " + ec.message());
+      if (ec) {
+        const std::string why = ec.message();
+        fs::remove_all(work_.path(), ec);
+        throw io::Error(final_, "cannot copy it into the work folder " + work_.path().string() + ": " + why);
+      }
     }
   }
   ~RunFolder() {
