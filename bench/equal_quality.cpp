@@ -24,8 +24,8 @@
 //        --roulette T1,T2,...   more roulette curves at these thresholds
 // Writes equal_quality.json into --out.
 #include <algorithm>
-#include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -46,6 +46,8 @@
 #include "difftrans/render/adaptive.hpp"
 #include "difftrans/render/passes.hpp"
 #include "difftrans/render/views.hpp"
+#include "difftrans/metrics/image.hpp"
+#include "support/timing.hpp"
 
 namespace dr = difftrans::render;
 using difftrans::Vec3f;
@@ -62,26 +64,15 @@ struct Curve {
   std::vector<Point> points;
 };
 
-double seconds_of(const std::function<void()>& f) {
-  const auto t0 = std::chrono::steady_clock::now();
-  f();
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
-// PSNR of the 8-bit tone-mapped images over the object's pixels
-double object_psnr(const std::vector<float>& img, const std::vector<float>& ref, const std::vector<bool>& mask) {
-  double sum = 0.0;
-  std::size_t n = 0;
-  for (std::size_t p = 0; p < mask.size(); ++p)
-    if (mask[p])
-      for (std::size_t c = 0; c < 3; ++c) {
-        const double d = (double(difftrans::io::tone_map_value(img[3 * p + c])) -
-                          double(difftrans::io::tone_map_value(ref[3 * p + c]))) / 255.0;
-        sum += d * d;
-        ++n;
-      }
-  const double mse = n ? sum / double(n) : 0.0;
-  return mse > 0.0 ? -10.0 * std::log10(mse) : 99.0;
+// PSNR of the 8-bit tone-mapped image over the object's pixels against the
+// tone-mapped converged render
+double object_psnr(const std::vector<float>& img, const std::vector<std::uint8_t>& converged8,
+                   const difftrans::io::Mask& mask) {
+  difftrans::io::Image image(mask.width, mask.height);
+  image.rgb = img;
+  const std::vector<std::uint8_t> img8 = difftrans::io::tone_map(image);
+  return difftrans::metrics::psnr({img8.data(), mask.width, mask.height}, {converged8.data(), mask.width, mask.height},
+                                  &mask);
 }
 
 // The time a curve needs to reach `target` dB: linear in log time between the
@@ -165,12 +156,7 @@ int main(int argc, char** argv) {
     return dr::camera_of(frames[std::size_t(std::clamp(view, 0, int(frames.size()) - 1))]);
   }();
   size = cam.width;
-  std::vector<bool> mask(std::size_t(cam.width) * std::size_t(cam.height));
-  for (int y = 0; y < cam.height; ++y)
-    for (int x = 0; x < cam.width; ++x) {
-      const auto r = cam.generate_ray(x, y);
-      mask[std::size_t(y) * std::size_t(cam.width) + std::size_t(x)] = s.accel().intersect(r.origin, r.direction).hit();
-    }
+  const difftrans::io::Mask mask = dr::object_mask(s, cam);
   const int threads = difftrans::ThreadPool::global().size();
   std::fprintf(stderr, "equal_quality: %s (IoR %.3f) under %s, %d x %d, %d threads\n", mesh_name.c_str(), ior,
                env_name.c_str(), cam.width, cam.height, threads);
@@ -182,9 +168,12 @@ int main(int argc, char** argv) {
   {
     dr::PassOptions o = reference;
     o.samples_per_axis = 27;
-    const double sec = seconds_of([&] { converged = dr::render_image<float>(s, cam, o); });
+    const double sec = dt_bench::best_seconds([&] { converged = dr::render_image<float>(s, cam, o); });
     std::fprintf(stderr, "converged render (27 x 27, depth 16, no pruning): %.1f s\n", sec);
   }
+  difftrans::io::Image converged_image(cam.width, cam.height);
+  converged_image.rgb = converged;
+  const std::vector<std::uint8_t> converged8 = difftrans::io::tone_map(converged_image);
 
   std::vector<Curve> curves;
   const auto uniform_curve = [&](const std::string& name, const std::string& what, const dr::PassOptions& base) {
@@ -195,8 +184,8 @@ int main(int argc, char** argv) {
       std::vector<float> img;
       Point pt;
       pt.budget = std::to_string(n) + "x" + std::to_string(n);
-      pt.seconds = seconds_of([&] { img = dr::render_image<float>(s, cam, o); });
-      pt.psnr = object_psnr(img, converged, mask);
+      pt.seconds = dt_bench::best_seconds([&] { img = dr::render_image<float>(s, cam, o); });
+      pt.psnr = object_psnr(img, converged8, mask);
       pt.samples = double(n * n);
       std::fprintf(stderr, "  %-14s %-8s %8.3f s  %6.2f dB\n", name.c_str(), pt.budget.c_str(), pt.seconds, pt.psnr);
       c.points.push_back(pt);
@@ -217,8 +206,8 @@ int main(int argc, char** argv) {
       char buf[32];
       std::snprintf(buf, sizeof buf, "tol %g", double(tol));
       pt.budget = buf;
-      pt.seconds = seconds_of([&] { img = dr::render_image_adaptive(s, cam, base, a, &st); });
-      pt.psnr = object_psnr(img, converged, mask);
+      pt.seconds = dt_bench::best_seconds([&] { img = dr::render_image_adaptive(s, cam, base, a, &st); });
+      pt.psnr = object_psnr(img, converged8, mask);
       pt.samples = st.mean_samples;
       std::fprintf(stderr, "  %-14s %-8s %8.3f s  %6.2f dB  %.1f samples per pixel\n", name.c_str(), pt.budget.c_str(),
                    pt.seconds, pt.psnr, pt.samples);

@@ -26,6 +26,7 @@
 #include "difftrans/io/hdr.hpp"
 #include "difftrans/io/mesh_file.hpp"
 #include "difftrans/render/passes.hpp"
+#include "support/timing.hpp"
 
 namespace dr = difftrans::render;
 using difftrans::Vec3f;
@@ -38,15 +39,7 @@ struct Point {
   bool pareto = false;
 };
 
-double seconds_of(const std::function<void()>& f, int repeats = 2) {
-  double best = 1e300;
-  for (int r = 0; r < repeats; ++r) {
-    const auto t0 = std::chrono::steady_clock::now();
-    f();
-    best = std::min(best, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-  }
-  return best;
-}
+double seconds_of(const std::function<void()>& f, int repeats = 2) { return dt_bench::best_seconds(f, repeats); }
 
 // The monkey-bands absorption of docs/benchmark-scenes.md on a grid over the unit box:
 // (0.5, 2, 5) above y = 0, (5, 2, 0.5) below, smooth step of width 0.1.

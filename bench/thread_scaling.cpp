@@ -7,10 +7,8 @@
 //
 // usage: thread_scaling [--size 128] [--repeats 3]
 #include <algorithm>
-#include <chrono>
 #include <cstdio>
 #include <cstdlib>
-#include <functional>
 #include <string>
 #include <vector>
 
@@ -18,21 +16,10 @@
 #include "difftrans/io/mesh_file.hpp"
 #include "difftrans/render/passes.hpp"
 #include "difftrans/render/views.hpp"
+#include "support/timing.hpp"
 
 namespace dr = difftrans::render;
 using difftrans::Vec3f;
-
-namespace {
-double best_seconds(int repeats, const std::function<void()>& f) {
-  double best = 1e300;
-  for (int r = 0; r < repeats; ++r) {
-    const auto t0 = std::chrono::steady_clock::now();
-    f();
-    best = std::min(best, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-  }
-  return best;
-}
-}  // namespace
 
 int main(int argc, char** argv) {
   int size = 128, repeats = 3;
@@ -60,8 +47,9 @@ int main(int argc, char** argv) {
   opt.samples_per_axis = 2;
   const std::vector<float> adjoint(std::size_t(size) * std::size_t(size) * 3, 1.0f);
   dr::SceneGradient grad(s);
-  const double primal = best_seconds(repeats, [&] { dr::render_image<float>(s, cam, opt); });
-  const double gradient = best_seconds(repeats, [&] { dr::render_gradient<float>(s, cam, adjoint.data(), grad, opt); });
+  const double primal = dt_bench::best_seconds([&] { dr::render_image<float>(s, cam, opt); }, repeats);
+  const double gradient =
+      dt_bench::best_seconds([&] { dr::render_gradient<float>(s, cam, adjoint.data(), grad, opt); }, repeats);
   std::printf("{\"threads\": %d, \"primal_seconds\": %.6f, \"gradient_seconds\": %.6f}\n",
               difftrans::ThreadPool::global().size(), primal, gradient);
   return 0;

@@ -264,24 +264,13 @@ int main(int argc, char** argv) {
     roulette.prune_throughput = 0.01f;
     benchmark::RegisterBenchmark((prefix + "primal").c_str(), primal, name, settings(16), Absorption::unchanged)
         ->Unit(benchmark::kMillisecond);
-    benchmark::RegisterBenchmark((prefix + "gradient").c_str(), gradient, name, settings(16), Absorption::unchanged,
-                                 false)
-        ->Unit(benchmark::kMillisecond);
-    benchmark::RegisterBenchmark((prefix + "gradient_roulette").c_str(), gradient, name, roulette,
-                                 Absorption::unchanged, false)
-        ->Unit(benchmark::kMillisecond);
-    benchmark::RegisterBenchmark((prefix + "gradient_training").c_str(), gradient, name, training_settings(),
-                                 Absorption::unchanged, false)
-        ->Unit(benchmark::kMillisecond);
-    benchmark::RegisterBenchmark((prefix + "streamed").c_str(), gradient, name, settings(16), Absorption::unchanged,
-                                 true)
-        ->Unit(benchmark::kMillisecond);
-    benchmark::RegisterBenchmark((prefix + "streamed_roulette").c_str(), gradient, name, roulette,
-                                 Absorption::unchanged, true)
-        ->Unit(benchmark::kMillisecond);
-    benchmark::RegisterBenchmark((prefix + "streamed_training").c_str(), gradient, name, training_settings(),
-                                 Absorption::unchanged, true)
-        ->Unit(benchmark::kMillisecond);
+    const std::pair<const char*, dr::TraceSettings> variants[] = {
+        {"", settings(16)}, {"_roulette", roulette}, {"_training", training_settings()}};
+    for (const bool streamed : {false, true})
+      for (const auto& [suffix, ts] : variants)
+        benchmark::RegisterBenchmark((prefix + (streamed ? "streamed" : "gradient") + suffix).c_str(), gradient, name,
+                                     ts, Absorption::unchanged, streamed)
+            ->Unit(benchmark::kMillisecond);
     groups.emplace_back(prefix, prefix + "primal");
   }
   return dt_bench::run_with_ratios(argc, argv, groups);

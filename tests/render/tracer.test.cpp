@@ -123,21 +123,29 @@ SceneGradient streamed_gradient(const HostScene& s, const std::vector<TestRay>& 
   return g;
 }
 
-// The largest tape trace<Var> records on any of the rays (the whole tree).
-std::int32_t full_tape_peak(const HostScene& s, const std::vector<TestRay>& rays, const TraceSettings& ts) {
+// trace<Var> on each ray with the whole tape: the tapes' total and largest
+// length, and the radiance.
+struct WholeTape {
+  std::int64_t total = 0;
+  std::int32_t peak = 0;
+  std::vector<Vec3d> radiance;
+};
+WholeTape whole_tape(const HostScene& s, const std::vector<TestRay>& rays, const TraceSettings& ts) {
   using V = ad::Var<double>;
   ad::ParamSet params = s.params();
   ad::Tape<double> tape(1 << 20);
   std::vector<ad::LeafRecord> log(1 << 16);
   ad::ParamReader<V> reader(&params, &tape, log.data(), std::int32_t(log.size()));
-  std::int32_t peak = 0;
+  WholeTape out;
   for (const auto& r : rays) {
     tape.reset();
     reader.clear();
-    difftrans::render::trace<V>(s.view(true, true), s.accel(), reader, r.o, r.d, ts);
-    peak = std::max(peak, tape.size());
+    const Vec3<V> L = difftrans::render::trace<V>(s.view(true, true), s.accel(), reader, r.o, r.d, ts);
+    out.radiance.emplace_back(L.x.value, L.y.value, L.z.value);
+    out.total += tape.size();
+    out.peak = std::max(out.peak, tape.size());
   }
-  return peak;
+  return out;
 }
 
 // The entries of `grad` with the largest magnitude.
@@ -526,7 +534,7 @@ TEST_CASE("streamed reverse mode: the same gradient on a tape bounded by the dep
     const float absorption_scale = same(full.absorption, streamed.absorption, "absorption");
     CHECK((c.absorption == 0) == (absorption_scale == 0.0f));
     // the whole tree's tape against the streamed tape's peak
-    const std::int32_t full_peak = full_tape_peak(s, rays, c.ts);
+    const std::int32_t full_peak = whole_tape(s, rays, c.ts).peak;
     MESSAGE(c.name, ": largest tape ", full_peak, " nodes, streamed ", peak);
     CHECK(peak <= full_peak);  // a sphere's tree is nearly a chain: little to gain
   }
@@ -547,7 +555,7 @@ TEST_CASE("streamed reverse mode: the same gradient on a tape bounded by the dep
     }
     CHECK(scale > 0.0f);
     CHECK(worst <= 1e-5f * scale);
-    const std::int32_t full_peak = full_tape_peak(spot, through, deep);
+    const std::int32_t full_peak = whole_tape(spot, through, deep).peak;
     MESSAGE("spot at depth 16: largest tape ", full_peak, " nodes, streamed ", peak);
     CHECK(2 * peak < full_peak);
   }
@@ -624,20 +632,10 @@ TEST_CASE("gradient_refractions: derivatives along the main refraction path only
   CHECK(std::abs(reverse - reverse_every) > 1e-3 * std::abs(reverse_every));
   // tape nodes per ray
   const auto nodes = [&](const TraceSettings& settings) {
-    using V = ad::Var<double>;
-    ad::ParamSet ps = sp.params();
-    ad::Tape<double> tape(1 << 20);
-    std::vector<ad::LeafRecord> log(1 << 16);
-    ad::ParamReader<V> rd(&ps, &tape, log.data(), std::int32_t(log.size()));
-    std::int64_t total = 0;
-    for (const auto& r : rays) {
-      tape.reset();
-      rd.clear();
-      const Vec3<V> L = difftrans::render::trace<V>(sp.view(true, true), sp.accel(), rd, r.o, r.d, settings);
-      CHECK(std::abs(L.x.value - trace_value<double>(sp, r, every).x) < 1e-12);
-      total += std::int64_t(tape.size());
-    }
-    return total;
+    const WholeTape t = whole_tape(sp, rays, settings);
+    for (std::size_t i = 0; i < rays.size(); ++i)
+      CHECK(std::abs(t.radiance[i].x - trace_value<double>(sp, rays[i], every).x) < 1e-12);
+    return t.total;
   };
   const std::int64_t n_main = nodes(ts), n_every = nodes(every);
   MESSAGE("tape nodes over 8 sphere rays: main path " << n_main << ", every branch " << n_every);

@@ -1,8 +1,9 @@
 // Host passes of the tracer over a camera image, on the thread pool:
 //   render_image       float radiance per pixel;
 //   render_gradient    reverse mode: given dLoss/dpixel, the gradient of the
-//                      loss w.r.t. every parameter buffer (one tape per ray,
-//                      reset after its backward pass, leaf adjoints scattered);
+//                      loss w.r.t. every parameter buffer (one tape per worker,
+//                      each ray streamed through it: render/tracer.hpp,
+//                      trace_streamed; leaf adjoints scattered as it goes);
 //   render_derivative  forward mode: the image and its derivative along one
 //                      direction in parameter space (Dual<float, 1>).
 // Pixel values are box-filtered over n×n stratified sub-pixel positions.
@@ -24,10 +25,6 @@ namespace difftrans::render {
 struct PassOptions {
   TraceSettings trace;
   int samples_per_axis = 1;            // n: n² sub-pixel samples at the centres of an n×n grid
-  // Reverse mode: sweep each branch back as soon as its subtree is traced
-  // (render/tracer.hpp, trace_streamed): the tape is bounded by the depth
-  // instead of the tree (the same gradient up to float rounding).
-  bool stream_gradient = true;
   std::int32_t tape_capacity = 1 << 20;     // nodes per ray (reverse mode)
   std::int32_t leaf_log_capacity = 1 << 16;  // parameter leaves per ray (reverse mode)
 };
@@ -35,7 +32,7 @@ struct PassOptions {
 struct PassStats {
   TraceStats trace;
   std::int64_t rays = 0;
-  std::int64_t tape_nodes = 0;      // summed over rays (reverse mode; streamed: each ray's peak)
+  std::int64_t tape_nodes = 0;      // each ray's largest tape, summed over rays (reverse mode)
   std::int32_t max_tape_nodes = 0;  // largest single ray
   std::int64_t overflowed_rays = 0; // rays whose tape or leaf log overflowed (their gradient is dropped)
   void add(const PassStats& o) {
@@ -164,37 +161,17 @@ std::vector<float> render_gradient(const HostScene& s, const scene::Camera& cam,
     PassStats& ps = st.per[std::size_t(w)];
     detail::for_each_sample(cam, opt.samples_per_axis, b, e, [&](std::int64_t pix, Vec3f o, Vec3f d, float wt) {
       const float* a = pixel_adjoint + std::size_t(pix) * 3;
-      if (opt.stream_gradient) {
-        Vec3<T> L;
-        const Vec3<T> adjoint(T(wt * a[0]), T(wt * a[1]), T(wt * a[2]));
-        s.with_escape([&](const auto& escape) {
-          L = trace_streamed<T>(view, s.accel(), reader, o, d, adjoint, opt.trace, &ps.trace, escape);
-        });
-        ++ps.rays;
-        ps.tape_nodes += tape->peak();
-        ps.max_tape_nodes = tape->peak() > ps.max_tape_nodes ? tape->peak() : ps.max_tape_nodes;
-        for (int c = 0; c < 3; ++c) image[std::size_t(pix) * 3 + c] += wt * float(L[c]);
-        // (an overflow has lost part of this ray's gradient; the rest is scattered)
-        if (tape->overflowed() || reader.overflowed()) ++ps.overflowed_rays;
-        return;
-      }
-      tape->reset();
-      reader.clear();
-      Vec3<V> L;
-      s.with_escape([&](const auto& escape) { L = trace<V>(view, s.accel(), reader, o, d, opt.trace, &ps.trace, escape); });
+      const Vec3<T> adjoint(T(wt * a[0]), T(wt * a[1]), T(wt * a[2]));
+      Vec3<T> L;
+      s.with_escape([&](const auto& escape) {
+        L = trace_streamed<T>(view, s.accel(), reader, o, d, adjoint, opt.trace, &ps.trace, escape);
+      });
       ++ps.rays;
-      ps.tape_nodes += tape->size();
-      ps.max_tape_nodes = tape->size() > ps.max_tape_nodes ? tape->size() : ps.max_tape_nodes;
-      for (int c = 0; c < 3; ++c) image[std::size_t(pix) * 3 + c] += wt * float(L[c].value);
-      if (tape->overflowed() || reader.overflowed()) {
-        ++ps.overflowed_rays;
-        reader.clear();
-        return;
-      }
-      tape->zero_adjoints();
-      for (int c = 0; c < 3; ++c) tape->seed(L[c], T(wt * a[c]));
-      tape->propagate();
-      reader.scatter();
+      ps.tape_nodes += tape->peak();
+      ps.max_tape_nodes = tape->peak() > ps.max_tape_nodes ? tape->peak() : ps.max_tape_nodes;
+      for (int c = 0; c < 3; ++c) image[std::size_t(pix) * 3 + c] += wt * float(L[c]);
+      // (an overflow has lost part of this ray's gradient; the rest is scattered)
+      if (tape->overflowed() || reader.overflowed()) ++ps.overflowed_rays;
     });
   });
   grad.fold_normals(s);

@@ -328,6 +328,24 @@ DT_HOST_DEVICE Vec3<S> follow(const SceneView& scene, const Accel& accel, Reader
   return radiance;
 }
 
+// The camera ray (origin, direction) as the root branch: the IoR read once,
+// the hash of the drawn and roulette choices, the loop, the counts.
+template <class S, class Accel, class Reader, class Escape, class Collect>
+DT_HOST_DEVICE Vec3<S> trace_camera_ray(const SceneView& scene, const Accel& accel, Reader& reader, const Vec3f& origin,
+                                        const Vec3f& direction, const TraceSettings& settings, TraceStats* stats,
+                                        const Escape& escape, const Collect& collect) {
+  TraceStats local;
+  const int max_depth = settings.max_depth < max_trace_depth ? settings.max_depth : max_trace_depth;
+  const S eta = ad::load<S>(reader, scene.ior, 0);
+  const std::uint64_t ray_hash =
+      settings.tree_depth < max_depth || settings.roulette ? camera_ray_hash(origin, direction) : 0u;
+  Branch<S> root{lift<S>(origin), lift<S>(direction), Vec3<S>(S(1), S(1), S(1)), 0, 1u};
+  collect.made(root);
+  const Vec3<S> radiance = follow<S>(scene, accel, reader, root, eta, ray_hash, settings, local, escape, collect);
+  if (stats) stats->add(local);
+  return radiance;
+}
+
 }  // namespace detail
 
 // Radiance (RGB) arriving at the camera along the ray (origin, direction).
@@ -338,15 +356,8 @@ template <class S, class Accel, class Reader, class Escape = DistantEscape>
 DT_HOST_DEVICE Vec3<S> trace(const SceneView& scene, const Accel& accel, Reader& reader, const Vec3f& origin,
                              const Vec3f& direction, const TraceSettings& settings, TraceStats* stats = nullptr,
                              const Escape& escape = Escape{}) {
-  TraceStats local;
-  const int max_depth = settings.max_depth < max_trace_depth ? settings.max_depth : max_trace_depth;
-  const S eta = ad::load<S>(reader, scene.ior, 0);
-  const std::uint64_t ray_hash =
-      settings.tree_depth < max_depth || settings.roulette ? detail::camera_ray_hash(origin, direction) : 0u;
-  const detail::Branch<S> root{lift<S>(origin), lift<S>(direction), Vec3<S>(S(1), S(1), S(1)), 0, 1u};
-  const Vec3<S> radiance = detail::follow<S>(scene, accel, reader, root, eta, ray_hash, settings, local, escape);
-  if (stats) stats->add(local);
-  return radiance;
+  return detail::trace_camera_ray<S>(scene, accel, reader, origin, direction, settings, stats, escape,
+                                     detail::SumBranches{});
 }
 
 // Streamed reverse mode: the gradient of adjoint · L(ray) added into the
@@ -363,24 +374,15 @@ DT_HOST_DEVICE Vec3<T> trace_streamed(const SceneView& scene, const Accel& accel
                                       const Vec3f& origin, const Vec3f& direction, const Vec3<T>& adjoint,
                                       const TraceSettings& settings, TraceStats* stats = nullptr,
                                       const Escape& escape = Escape{}) {
-  using S = ad::Var<T>;
   ad::Tape<T>* tape = reader.tape();
   tape->reset();
   tape->zero_on_push(true);
   reader.clear();
-  TraceStats local;
-  const int max_depth = settings.max_depth < max_trace_depth ? settings.max_depth : max_trace_depth;
-  const S eta = ad::load<S>(reader, scene.ior, 0);
-  const std::uint64_t ray_hash =
-      settings.tree_depth < max_depth || settings.roulette ? detail::camera_ray_hash(origin, direction) : 0u;
   const detail::StreamBranches<T> collect{&reader, adjoint};
-  detail::Branch<S> root{lift<S>(origin), lift<S>(direction), Vec3<S>(S(1), S(1), S(1)), 0, 1u};
-  collect.made(root);
-  const Vec3<S> radiance =
-      detail::follow<S>(scene, accel, reader, root, eta, ray_hash, settings, local, escape, collect);
+  const Vec3<ad::Var<T>> radiance =
+      detail::trace_camera_ray<ad::Var<T>>(scene, accel, reader, origin, direction, settings, stats, escape, collect);
   collect.settle(1);  // what is left: the root's segment and the IoR
   tape->zero_on_push(false);
-  if (stats) stats->add(local);
   return Vec3<T>(radiance.x.value, radiance.y.value, radiance.z.value);
 }
 
