@@ -9,8 +9,10 @@
 
 #include "command.hpp"
 #include "difftrans/io/dataset.hpp"
+#include "difftrans/io/contact_sheet.hpp"
 #include "difftrans/io/image_file.hpp"
 #include "difftrans/io/mesh_file.hpp"
+#include "difftrans/io/ply.hpp"
 #include "difftrans/metrics/metrics.hpp"
 
 namespace difftrans::cli {
@@ -27,6 +29,8 @@ struct EvaluateOptions {
   double tau = metrics::GeometryOptions{}.tau;
   std::optional<double> pred_ior, gt_ior;
   std::optional<fs::path> out;
+  std::string error_map;
+  std::optional<double> error_scale;
 };
 
 // The images of a folder by name (stem); a name in several formats keeps the
@@ -45,6 +49,37 @@ std::map<std::string, fs::path> images_in(const fs::path& dir) {
     if (slot.empty() || rank(entry.path()) < rank(slot)) slot = entry.path();
   }
   return found;
+}
+
+// The predicted mesh with each vertex coloured by its distance to the true
+// surface (io::heat_color of distance / scale), as a PLY that mesh viewers
+// open; the distances' quantiles go in the JSON.
+void write_error_map(const EvaluateOptions& o, const io::Mesh& pred, const io::Mesh& gt,
+                     const metrics::GeometryOptions& options, io::Json& result) {
+  progress("evaluate: the error map (distance of each of the " + std::to_string(pred.positions.size()) +
+           " predicted vertices to the true surface)");
+  const std::vector<double> d = metrics::vertex_distances(pred, gt, options);
+  const double scale = o.error_scale.value_or(o.tau);
+  std::vector<std::array<std::uint8_t, 3>> colours(d.size());
+  for (std::size_t v = 0; v < d.size(); ++v) colours[v] = io::heat_color(float(d[v] / scale));
+  io::write_ply(o.error_map, pred, false, nullptr, &colours);
+  std::vector<double> sorted = d;
+  std::sort(sorted.begin(), sorted.end());
+  const auto quantile = [&](double q) {
+    return sorted.empty() ? 0.0 : sorted[std::min(sorted.size() - 1, std::size_t(q * double(sorted.size())))];
+  };
+  double sum = 0.0, above = 0.0;
+  for (double x : d) sum += x, above += x > o.tau;
+  const double n = double(std::max<std::size_t>(1, d.size()));
+  result["error_map"] = {{"file", o.error_map},
+                         {"scale", scale},
+                         {"vertices", d.size()},
+                         {"mean", sum / n},
+                         {"p50", quantile(0.5)},
+                         {"p90", quantile(0.9)},
+                         {"p99", quantile(0.99)},
+                         {"max", sorted.empty() ? 0.0 : sorted.back()},
+                         {"fraction_above_tau", above / n}};
 }
 
 void evaluate_geometry(const EvaluateOptions& o, io::Json& result) {
@@ -67,6 +102,7 @@ void evaluate_geometry(const EvaluateOptions& o, io::Json& result) {
   result["samples"] = m.samples;
   result["seed"] = o.seed;
   result["mesh_warnings"] = warnings;
+  if (!o.error_map.empty()) write_error_map(o, pred, gt, options, result);
 }
 
 // Ground truth from a scene directory's split: images and masks by frame name.
@@ -151,6 +187,10 @@ void run(const EvaluateOptions& o) {
     throw CLI::ValidationError("--pred-images and --gt-images go together");
   if (!o.masks.empty() && !images) throw CLI::ValidationError("--masks needs --pred-images and --gt-images");
   if (ior && !(o.pred_ior && o.gt_ior)) throw CLI::ValidationError("--pred-ior and --gt-ior go together");
+  if ((!o.error_map.empty() || o.error_scale) && !geometry)
+    throw CLI::ValidationError("--error-map and --error-scale need --pred and --gt");
+  if (!o.error_map.empty() && io::detail::lower_extension(o.error_map) != ".ply")
+    throw CLI::ValidationError("--error-map writes a PLY file (vertex colours): name it .ply, not " + o.error_map);
   if (!geometry && !images && !ior)
     throw CLI::ValidationError("nothing to evaluate: give --pred/--gt, --pred-images/--gt-images or --pred-ior/--gt-ior");
   io::Json result = io::Json::object();
@@ -172,7 +212,9 @@ void add_evaluate(CLI::App& app) {
       "  images paired by name (any of .exr .hdr .png), tone-mapped to 8 bits; masks are DIR/NAME.png.\n"
       "Images of a scene: difftrans evaluate --pred-images OUT/images --scene SCENE_DIR [--split test]\n"
       "  ground truth and masks from the scene's transforms_test.json (or _train), paired by frame name.\n"
-      "Infinite values (identical images) are written as null.");
+      "Infinite values (identical images) are written as null.\n"
+      "Error map: difftrans evaluate --pred MESH --gt MESH --error-map ERR.ply\n"
+      "  where the prediction is wrong, as vertex colours; the distances' quantiles in the JSON (error_map).");
   cmd->add_option("--pred", o->pred, "predicted mesh (.obj or .ply)");
   cmd->add_option("--gt", o->gt, "ground-truth mesh (.obj or .ply)");
   cmd->add_option("--samples", o->samples, "points sampled per mesh")->capture_default_str()->check(CLI::PositiveNumber);
@@ -186,6 +228,11 @@ void add_evaluate(CLI::App& app) {
   cmd->add_option("--pred-ior", o->pred_ior, "predicted index of refraction (adds ior_error)");
   cmd->add_option("--gt-ior", o->gt_ior, "true index of refraction");
   cmd->add_option("--out", o->out, "also write the JSON to this file");
+  cmd->add_option("--error-map", o->error_map,
+                  "with --pred/--gt: write the predicted mesh as PLY, each vertex coloured by its distance to the true "
+                  "surface (black at 0, through purple and red, to pale yellow at --error-scale)");
+  cmd->add_option("--error-scale", o->error_scale, "distance drawn pale yellow in --error-map (default: --tau)")
+      ->check(CLI::PositiveNumber);
   cmd->callback([o] { run(*o); });
 }
 

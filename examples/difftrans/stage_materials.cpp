@@ -171,7 +171,7 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
                                                                    fixed(st.sky_scale.y, 3) + ", " +
                                                                    fixed(st.sky_scale.z, 3) + ")"
                                                              : std::string()) +
-                                         (st.geometry_moving ? " mask " + fixed(st.mask, 5) : std::string()) + "  " +
+                                         (st.geometry_moving ? " mask " + fixed(st.mask, 5) + " lambda " + fixed(st.lambda, 2) : std::string()) + "  " +
                                          fixed(st.seconds, 3) + " s/it" +
                                          (st.skipped_rays ? "  skipped " + std::to_string(st.skipped_rays) : std::string()));
       if (stop_requested() || stage.done() ||

@@ -126,6 +126,10 @@ struct Stage2Config {
   // The vertices move for this many iterations after the warm-up, the IoR
   // and absorption held still; then the materials settle on the final mesh.
   int geometry_iterations = 500;
+  // The absorption keeps moving with the vertices (the IoR held): a
+  // residual of the absorption, e.g. bands sharper than its grid, is then
+  // not left to the vertices alone to explain.
+  bool absorption_with_vertices = false;
   // Coarse to fine: while the vertices move, the environment is blurred by a
   // Gaussian of geometry_blur degrees, halved every blur_halving iterations
   // (below half a texel: sharp). On spot-clear the loss along the way from the
@@ -181,6 +185,13 @@ struct Stage2Config {
   // converges slower (tests/pipeline/materials). Hence still 19: λ from
   // coarse to fine is the next step (docs/stage2-diagnostics.md, "home").
   double lambda = 19.0;
+  // Coarse to fine: λ falls from `lambda` to lambda_final at each halving of
+  // the blur (every blur_halving iterations of the geometry phase),
+  // geometrically, so that the last stage, against the sharpest map, moves
+  // at lambda_final. A new λ keeps the positions and restarts the vertices'
+  // Adam moments (LargeStepsOptimizer::change_lambda). Negative: `lambda`
+  // throughout.
+  double lambda_final = -1.0;
   // unknowns
   float ior_init = 1.5f;
   float ior_min = 1.0f, ior_max = 3.0f;
@@ -345,6 +356,9 @@ struct Stage2Config {
             "iterations the vertices move after the warm-up (materials held still), before the materials settle", 0,
             big},
       c.geometry_iterations);
+    v(Field{"absorption_with_vertices", "--materials-absorption-with-vertices",
+            "the absorption keeps moving while the vertices move (the IoR held)"},
+      c.absorption_with_vertices);
     v(Field{"geometry_blur_degrees", "--materials-blur",
             "environment blur (Gaussian sigma, degrees) when the vertices start moving, halved every "
             "--materials-blur-halving iterations (0: sharp)",
@@ -376,7 +390,14 @@ struct Stage2Config {
       c.ior_settle_batches);
     v(Field{"ior_settle_step", "", "spacing of the five IoRs of the final regression"}, c.ior_settle_step);
     v(Field{"ior_settle_rounds", "", "recentrings of the final regression's five IoRs"}, c.ior_settle_rounds);
-    v(Field{"lambda", "--materials-lambda", "large-steps lambda (with --materials-geometry)", 0, 1e6}, c.lambda);
+    v(Field{"lambda", "--materials-lambda", "large-steps lambda (with --materials-geometry) when the vertices start", 0,
+            1e6},
+      c.lambda);
+    v(Field{"lambda_final", "--materials-lambda-final",
+            "large-steps lambda of the last blur level: lambda falls geometrically to it at each blur halving "
+            "(negative: --materials-lambda throughout)",
+            -1, 1e6},
+      c.lambda_final);
     v(Field{"ior_init", "--ior-init", "starting IoR", 1, 3}, c.ior_init);
     v(Field{"ior_min", "", "smallest IoR"}, c.ior_min);
     v(Field{"ior_max", "", "largest IoR"}, c.ior_max);
@@ -467,6 +488,7 @@ struct Stage2Stats {
   bool geometry_moving = false;
   Vec3f sky_scale{1.0f};          // the unseen sky's factor (fit_unseen_sky)
   float environment_blur = 0.0f;  // σ in texels of the map this iteration
+  double lambda = 0.0;            // large steps' λ of the vertices this iteration (0: they hold still)
   std::int64_t rays = 0, skipped_rays = 0, overflowed_rays = 0, clipped_rays = 0, clipped_ior_rays = 0;
   double seconds = 0.0, trace_seconds = 0.0;
 };
@@ -694,16 +716,21 @@ class Stage2 {
                          it < config_.freeze_geometry + config_.geometry_iterations;
     // the materials hold still while the vertices move
     const bool materials_moving = !st.geometry_moving;
+    // ... but for the absorption with absorption_with_vertices
+    const bool absorption_moving = materials_moving || config_.absorption_with_vertices;
     st.environment_blur = st.geometry_moving ? blur_at(it) : 0.0f;
     set_environment_blur(st.environment_blur);
     if (st.geometry_moving && !positions_started_) {
+      positions_.set_lambda(lambda_at(it));
       positions_.reset(scene_.mesh.positions, scene_.mesh.triangles);
       positions_started_ = true;
     }
+    if (st.geometry_moving) positions_.change_lambda(lambda_at(it), scene_.mesh.positions);
+    st.lambda = st.geometry_moving ? positions_.lambda() : 0.0;
     if (it == 0 && choosing()) choose_absorption();
     const bool absorbing = absorption_fitted();
     scene_.differentiate[param_ior] = config_.optimize_ior && materials_moving;
-    scene_.differentiate[param_absorption] = absorbing && materials_moving;
+    scene_.differentiate[param_absorption] = absorbing && absorption_moving;
     scene_.differentiate[param_positions] = st.geometry_moving;
     scene_.differentiate[param_normals] = st.geometry_moving;
     const bool sky_moving = sky_fitted() && materials_moving;
@@ -752,7 +779,7 @@ class Stage2 {
     st.overflowed_rays = rb.stats.overflowed_rays;
 
     // absorption regularizers (a grid's)
-    if (absorbing && materials_moving && scene_.absorption_kind == scene::AbsorptionKind::grid) {
+    if (absorbing && absorption_moving && scene_.absorption_kind == scene::AbsorptionKind::grid) {
       const auto [tv, vol] = losses::absorption_regularizers(scene_.absorption_raw, scene_.absorption_res, w.smoothness,
                                                      w.volume, grad.absorption);
       st.smoothness = tv;
@@ -788,7 +815,7 @@ class Stage2 {
                      decay * (it >= config_.ior_warmup ? config_.lr_ior : config_.lr_ior_frozen));
       scene_.ior = std::clamp(scene_.ior, config_.ior_min, config_.ior_max);
     }
-    if (absorbing && materials_moving) {
+    if (absorbing && absorption_moving) {
       for (float& g : grad.absorption)
         if (!std::isfinite(g)) g = 0.0f;
       absorption_adam_.step(scene_.absorption_raw.data(), grad.absorption.data(), decay * config_.lr_absorption);
@@ -949,8 +976,10 @@ class Stage2 {
     std::copy(sky.begin(), sky.end(), sky_log_);
     apply_sky();
     positions_started_ = started != 0;
-    if (positions_started_)
+    if (positions_started_) {
+      positions_.set_lambda(lambda_at(it - 1));  // the λ the last iteration moved with
       positions_.restore(scene_.mesh.triangles, std::int32_t(np / 3), u, adam[2]);
+    }
     history_.assign(std::size_t(it), Stage2Stats{});
     for (std::size_t i = 0; i < history_.size(); ++i) {
       Stage2Stats& h = history_[i];
@@ -1636,6 +1665,20 @@ class Stage2 {
   // The first iteration after the vertices' phase (0 without one).
   int geometry_end() const {
     return config_.optimize_positions ? config_.freeze_geometry + config_.geometry_iterations : 0;
+  }
+
+  // Large steps' λ at iteration it of the geometry phase (clamped to it):
+  // from lambda to lambda_final, geometrically, one level per blur_halving
+  // iterations.
+  double lambda_at(int it) const {
+    const int halving = std::max(1, config_.blur_halving);
+    const int levels = std::max(1, (config_.geometry_iterations + halving - 1) / halving);
+    const double first = config_.lambda, last = config_.lambda_final < 0.0 ? first : config_.lambda_final;
+    if (levels == 1 || last == first) return first;
+    const int level = std::clamp((it - config_.freeze_geometry) / halving, 0, levels - 1);
+    if (level == levels - 1) return last;
+    if (!(first > 0.0) || !(last > 0.0)) return first + (last - first) * double(level) / double(levels - 1);
+    return first * std::pow(last / first, double(level) / double(levels - 1));
   }
 
   // The environment blur of iteration it (within the geometry phase).

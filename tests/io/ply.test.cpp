@@ -2,8 +2,11 @@
 // elements, polygons fanned; bad input located by line (ASCII) or byte offset.
 #include "difftrans/io/ply.hpp"
 
+#include <array>
+#include <cstdint>
 #include <cstring>
 #include <sstream>
+#include <vector>
 
 #include "io/fixtures.hpp"
 
@@ -129,6 +132,38 @@ TEST_CASE("PLY: written with vertex normals, which readers that skip them ignore
   const std::string message = (dir / "bad.ply").string() + ": cannot write " + std::to_string(normals.size()) +
                               " normals for " + std::to_string(m.positions.size()) + " vertices";
   CHECK_THROWS_WITH_AS(io::write_ply(dir / "bad.ply", m, false, &normals), message.c_str(), io::Error);
+}
+
+TEST_CASE("PLY: written with vertex colours (uchar red green blue), positions read back unchanged") {
+  TempDir dir;
+  const auto m = uv_sphere(1.0, 4, 6, {0.0, 0.0, 0.0});
+  std::vector<std::array<std::uint8_t, 3>> colours;
+  for (std::size_t v = 0; v < m.positions.size(); ++v)
+    colours.push_back({std::uint8_t(v), std::uint8_t(255 - v), std::uint8_t(7 * v)});
+  for (const bool ascii : {false, true}) {
+    io::write_ply(dir / "c.ply", m, ascii, nullptr, &colours);
+    const io::Mesh back = io::read_ply(dir / "c.ply");
+    CHECK(back.positions == m.positions);
+    CHECK(back.triangles == m.triangles);
+    const std::string text = io::detail::read_file_text(dir / "c.ply");
+    CHECK(contains(text, "property float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nelement face"));
+    const std::size_t body = text.find("end_header\n") + 11;
+    if (ascii) {
+      std::istringstream in(text.substr(body));
+      for (std::size_t v = 0; v < m.positions.size(); ++v) {
+        float x[3];
+        int c[3];
+        in >> x[0] >> x[1] >> x[2] >> c[0] >> c[1] >> c[2];
+        for (int k = 0; k < 3; ++k) CHECK(c[k] == int(colours[v][std::size_t(k)]));
+      }
+    } else {
+      for (std::size_t v = 0; v < m.positions.size(); ++v)
+        for (int k = 0; k < 3; ++k)
+          CHECK(std::uint8_t(text[body + v * 15 + 12 + std::size_t(k)]) == colours[v][std::size_t(k)]);
+    }
+  }
+  colours.pop_back();
+  CHECK_THROWS_AS(io::write_ply(dir / "bad.ply", m, false, nullptr, &colours), io::Error);
 }
 
 TEST_CASE("PLY: bad input gives an Error naming the file and the problem") {

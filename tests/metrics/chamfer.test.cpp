@@ -3,6 +3,8 @@
 // on either side of the gap, precision against recall with an extra part.
 #include "difftrans/metrics/chamfer.hpp"
 
+#include <vector>
+
 #include "io/fixtures.hpp"
 
 using namespace dt_test;
@@ -140,4 +142,38 @@ TEST_CASE("k-d tree nearest neighbours agree with brute force, for any thread co
     CHECK(one[i] == doctest::Approx(best).epsilon(1e-12));
   }
   CHECK_THROWS_AS(metrics::nearest_squared_distances(queries, {}), std::invalid_argument);
+}
+
+TEST_CASE("vertex distances: the radial gap of concentric spheres, and one displaced vertex stands out") {
+  // Normalized radii 0.5 (truth) and 0.4: every vertex of the inner sphere
+  // lies 0.1 from the true sphere, less the truth's tessellation, plus the
+  // distance to the nearest of the samples (50,000 over an area of pi:
+  // a mean near 0.004, the largest of thousands of vertices near 0.013).
+  const Vec3d centre(3.0, -1.0, 2.0);
+  const io::Mesh gt = uv_sphere(2.0, 64, 128, centre);
+  io::Mesh pred = uv_sphere(1.6, 32, 64, centre);
+  metrics::GeometryOptions options;
+  options.samples = 50000;
+  const std::vector<double> d = metrics::vertex_distances(pred, gt, options);
+  REQUIRE(d.size() == pred.positions.size());
+  const double h2 = inscribed_ratio(gt, 2.0);
+  for (double x : d) {
+    CHECK(x >= 0.5 * h2 - 0.4 - 1e-9);
+    CHECK(x <= 0.1 + 0.01);
+  }
+  // the predicted mesh equal to the truth but for one vertex pushed out by
+  // 0.2 in the truth's units (0.05 normalized)
+  io::Mesh same = gt;
+  const std::size_t moved = same.positions.size() / 2;
+  const difftrans::Vec3f out = glm::normalize(same.positions[moved] - difftrans::Vec3f(centre));
+  same.positions[moved] += 0.2f * out;
+  const std::vector<double> e = metrics::vertex_distances(same, gt, options);
+  double others = 0.0, mean = 0.0;
+  for (std::size_t v = 0; v < e.size(); ++v)
+    if (v != moved) others = std::max(others, e[v]), mean += e[v] / double(e.size() - 1);
+  MESSAGE("on the surface: mean " << mean << ", largest " << others << "; the moved vertex " << e[moved]);
+  CHECK(mean < 0.006);
+  CHECK(others < 0.02);
+  CHECK(e[moved] == doctest::Approx(0.05).epsilon(0.1));
+  CHECK(e[moved] > 2.0 * others);
 }

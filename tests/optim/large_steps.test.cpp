@@ -174,3 +174,62 @@ TEST_CASE("LargeStepsOptimizer moves a noisy sphere toward a target") {
   CHECK(err < 0.1 * err0);
   CHECK(opt.parameterization().factorizations() == 1);
 }
+
+TEST_CASE("LargeStepsOptimizer::change_lambda keeps the positions and reaches detail a constant large λ cannot") {
+  const dt_test::Shape s = dt_test::make_icosphere(1.0f, 3);
+  const std::int32_t nv = std::int32_t(s.positions.size() / 3);
+  // the target: the sphere with a per-vertex radial bump (fine detail)
+  std::vector<float> target = s.positions;
+  const std::vector<float> bumps = random_field(std::size_t(nv), 5, 0.05f);
+  for (std::int32_t v = 0; v < nv; ++v)
+    for (int c = 0; c < 3; ++c) target[3 * v + c] *= 1.2f + bumps[std::size_t(v)];
+  const auto error = [&](const std::vector<float>& x) {
+    double e = 0.0;
+    for (std::size_t i = 0; i < x.size(); ++i) e += std::abs(double(x[i]) - double(target[i]));
+    return e / double(x.size());
+  };
+  const auto fit = [&](const std::vector<double>& lambdas, int steps_each, LargeStepsOptimizer& opt) {
+    std::vector<float> x = s.positions;
+    opt.set_lambda(lambdas.front());
+    opt.reset(x, s.triangles);
+    std::vector<float> g(x.size());
+    for (double lambda : lambdas) {
+      const std::vector<float> before = x;
+      opt.change_lambda(lambda, x);
+      CHECK(x == before);  // a new λ moves nothing by itself
+      for (int it = 0; it < steps_each; ++it) {
+        for (std::size_t i = 0; i < x.size(); ++i) g[i] = x[i] - target[i];
+        opt.step(x, g, 0.005f);
+      }
+    }
+    return x;
+  };
+
+  SUBCASE("u = M x after the change; the same λ is no change") {
+    LargeStepsOptimizer opt(10.0);
+    std::vector<float> x = s.positions;
+    opt.reset(x, s.triangles);
+    CHECK_FALSE(opt.change_lambda(10.0, x));
+    CHECK(opt.parameterization().factorizations() == 1);
+    x = random_field(x.size(), 9);
+    CHECK(opt.change_lambda(2.0, x));
+    CHECK(opt.lambda() == 2.0);
+    CHECK(opt.parameterization().factorizations() == 2);
+    LargeSteps ref(2.0);
+    ref.set_topology(s.triangles, nv);
+    const std::vector<float> u = ref.to_u(x);
+    for (std::size_t i = 0; i < u.size(); ++i) CHECK(opt.u()[i] == doctest::Approx(u[i]).epsilon(1e-5));
+    CHECK(opt.adam().steps() == 0);  // the moments restarted
+  }
+  SUBCASE("coarse to fine against a constant λ, the same number of steps") {
+    LargeStepsOptimizer constant(10.0), schedule(10.0);
+    const double e0 = error(s.positions);
+    const double e_constant = error(fit({10.0, 10.0, 10.0}, 100, constant));
+    const double e_schedule = error(fit({10.0, 2.0, 0.5}, 100, schedule));
+    MESSAGE("mean |x - target|: start " << e0 << ", λ 10 throughout " << e_constant << ", λ 10 -> 2 -> 0.5 "
+                                        << e_schedule);
+    CHECK(constant.parameterization().factorizations() == 1);
+    CHECK(schedule.parameterization().factorizations() == 3);
+    CHECK(e_schedule < 0.7 * e_constant);
+  }
+}

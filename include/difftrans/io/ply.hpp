@@ -2,7 +2,10 @@
 // and big endian) files, polygons fan-triangulated; a binary writer.
 #pragma once
 
+#include <algorithm>
+#include <array>
 #include <cerrno>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -334,17 +337,23 @@ inline Mesh read_ply(const std::filesystem::path& path, std::vector<std::string>
 
 // Writes binary little-endian PLY (float x y z; uchar-counted int indices),
 // or ASCII when ascii = true; with `normals` (one per vertex) also float
-// nx ny nz per vertex.
+// nx ny nz per vertex, with `colors` uchar red green blue (what mesh viewers
+// show as vertex colours).
 inline void write_ply(const std::filesystem::path& path, const Mesh& mesh, bool ascii = false,
-                      const std::vector<Vec3f>* normals = nullptr) {
+                      const std::vector<Vec3f>* normals = nullptr,
+                      const std::vector<std::array<std::uint8_t, 3>>* colors = nullptr) {
   if (normals && normals->size() != mesh.positions.size())
     throw Error(path, "cannot write " + std::to_string(normals->size()) + " normals for " +
+                          std::to_string(mesh.positions.size()) + " vertices");
+  if (colors && colors->size() != mesh.positions.size())
+    throw Error(path, "cannot write " + std::to_string(colors->size()) + " colours for " +
                           std::to_string(mesh.positions.size()) + " vertices");
   std::string out = "ply\nformat ";
   out += ascii ? "ascii" : "binary_little_endian";
   out += " 1.0\ncomment written by difftrans\nelement vertex " + std::to_string(mesh.positions.size()) +
          "\nproperty float x\nproperty float y\nproperty float z\n";
   if (normals) out += "property float nx\nproperty float ny\nproperty float nz\n";
+  if (colors) out += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
   out += "element face " + std::to_string(mesh.triangles.size()) +
          "\nproperty list uchar int vertex_indices\nend_header\n";
   if (ascii) {
@@ -356,6 +365,11 @@ inline void write_ply(const std::filesystem::path& path, const Mesh& mesh, bool 
       if (normals) {
         const Vec3f& n = (*normals)[v];
         std::snprintf(line, sizeof(line), " %.9g %.9g %.9g", double(n.x), double(n.y), double(n.z));
+        out += line;
+      }
+      if (colors) {
+        const auto& c = (*colors)[v];
+        std::snprintf(line, sizeof(line), " %d %d %d", int(c[0]), int(c[1]), int(c[2]));
         out += line;
       }
       out += '\n';
@@ -378,6 +392,8 @@ inline void write_ply(const std::filesystem::path& path, const Mesh& mesh, bool 
       for (int c = 0; c < 3; ++c) put(&mesh.positions[v][c], 4);
       if (normals)
         for (int c = 0; c < 3; ++c) put(&(*normals)[v][c], 4);
+      if (colors)
+        for (int c = 0; c < 3; ++c) out.push_back(char((*colors)[v][std::size_t(c)]));
     }
     for (const auto& f : mesh.triangles) {
       out.push_back(char(3));

@@ -7,6 +7,7 @@
 #include <nanoflann.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <random>
 #include <stdexcept>
@@ -144,6 +145,27 @@ inline GeometryMetrics evaluate_geometry(const io::Mesh& predicted, const io::Me
   const auto points_p = sample_surface(p, options.samples, options.seed);
   const auto points_q = sample_surface(q, options.samples, options.seed);
   return compare_point_sets(points_p, points_q, options.tau, options.threads);
+}
+
+// An error map: the distance from each vertex of `predicted` to the truth's
+// surface, in the same frame as evaluate_geometry (the truth's unit box when
+// options.normalize), the surface standing as its options.samples
+// area-weighted points (so a vertex on the surface reads about the samples'
+// spacing, not 0).
+inline std::vector<double> vertex_distances(const io::Mesh& predicted, const io::Mesh& truth,
+                                            const GeometryOptions& options = {}) {
+  io::Mesh p = predicted, q = truth;
+  if (options.normalize) {
+    const io::UnitBoxTransform transform = io::unit_box_transform(truth);
+    io::apply_transform(transform, p);
+    io::apply_transform(transform, q);
+  }
+  std::vector<Vec3d> vertices(p.positions.size());
+  for (std::size_t v = 0; v < vertices.size(); ++v) vertices[v] = Vec3d(p.positions[v]);
+  std::vector<double> d = nearest_squared_distances(vertices, sample_surface(q, options.samples, options.seed),
+                                                    options.threads);
+  for (double& x : d) x = std::sqrt(x);
+  return d;
 }
 
 }  // namespace difftrans::metrics

@@ -91,6 +91,7 @@ class LargeSteps {
   double lambda() const { return lambda_; }
 
   std::int32_t num_vertices() const { return num_vertices_; }
+  const std::vector<std::int32_t>& triangles() const { return triangles_; }
   // How many times M has been factorized: unchanged while the topology is.
   int factorizations() const { return factorizations_; }
   const SparseMatrixd& matrix() const { return M_; }
@@ -192,6 +193,26 @@ class LargeStepsOptimizer {
     steps_.from_u(u_.data(), x.data());
   }
   void step(std::vector<float>& x, const std::vector<float>& grad_x) { step(x, grad_x, adam_.options().lr); }
+
+  // λ for the next reset() or restore().
+  void set_lambda(double lambda) { steps_.set_lambda(lambda); }
+  double lambda() const { return steps_.lambda(); }
+
+  // A new λ in the middle of a fit (coarse to fine: a large λ moves the
+  // whole surface, a small one its detail), keeping the positions x: M is
+  // refactorized, u = M x, and Adam's moments restart (they were moments of
+  // the old u). Returns false, changing nothing, when λ is already this one.
+  bool change_lambda(double lambda, const std::vector<float>& x) {
+    if (lambda == steps_.lambda()) return false;
+    if (x.size() != u_.size()) throw std::invalid_argument("LargeStepsOptimizer::change_lambda: size mismatch");
+    steps_.set_lambda(lambda);
+    const std::int32_t n = steps_.num_vertices();
+    const std::vector<std::int32_t> triangles = steps_.triangles();
+    steps_.set_topology(triangles, n);
+    u_ = steps_.to_u(x);
+    adam_.reset(u_.size());
+    return true;
+  }
 
   const LargeSteps& parameterization() const { return steps_; }
   const AdamUniform& adam() const { return adam_; }
