@@ -36,14 +36,24 @@ for s in $scenes; do
     done
   fi
 done
-echo "| scene | IoR (true) | IoR error | test PSNR | in-mask PSNR | SSIM | CD (stage 1 → 2) | bound: true material on stage-1 mesh (in-mask) | bound: true mesh + material (in-mask) | fit time | peak RSS MB |"
-echo "|---|---|---|---|---|---|---|---|---|---|---|"
+# Error maps (vertex colours by distance to the true surface; open them in a
+# mesh viewer): OUT/error_stage1.ply and, when the vertices moved,
+# OUT/error_stage2.ply; the fraction of vertices beyond tau goes in the table.
+beyond() {  # beyond MESH SCENE PLY: the fraction of MESH's vertices farther than tau from the truth, in %
+  "$bin" evaluate --pred "$1" --gt "$2/gt/mesh.obj" --error-map "$3" 2>/dev/null |
+    jq -r '.error_map.fraction_above_tau * 1000 | round / 10'
+}
+echo "| scene | IoR (true) | IoR error | test PSNR | in-mask PSNR | SSIM | CD (stage 1 → 2) | F1 (stage 1 → 2) | vertices beyond τ, % (stage 1 → 2) | mean dihedral ° (stage 1 → 2) | bound: true material on stage-1 mesh (in-mask) | bound: true mesh + material (in-mask) | fit time | peak RSS MB |"
+echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 for s in $scenes; do
   out=$work/$tag/$s
   r=$out/reconstruct.json
+  e1=$(beyond "$out/mesh_stage1.obj" "$work/scenes/$s" "$out/error_stage1.ply") e2=$e1
+  [ -f "$out/mesh_stage2.obj" ] && e2=$(beyond "$out/mesh_stage2.obj" "$work/scenes/$s" "$out/error_stage2.ply")
   b1=$(jq -r '.psnr_mask * 100 | round / 100' "$out/bound_stage1/metrics.json")
   b2=$(jq -r '.psnr_mask * 100 | round / 100' "$out/bound_gt/metrics.json")
   rss=$(grep "Maximum resident set size" "$out.log" | awk '{printf "%.0f", $NF/1024}')
-  jq -r --arg s "$s" --arg b1 "$b1" --arg b2 "$b2" --arg rss "$rss" '.materials as $m |
-    "| \($s) | \($m.ior * 1000 | round / 1000) (\($m.ior_true)) | \($m.ior_error * 1000 | round / 1000) | \($m.test.psnr * 100 | round / 100) | \($m.test.psnr_mask * 100 | round / 100) | \($m.test.ssim * 1000 | round / 1000) | \(.geometry.final.chamfer * 1e7 | round / 1e7) → \($m.chamfer * 1e7 | round / 1e7) | \($b1) | \($b2) | \($m.fit_seconds | round) s | \($rss) |"' "$r"
+  jq -r --arg s "$s" --arg b1 "$b1" --arg b2 "$b2" --arg rss "$rss" --arg e1 "$e1" --arg e2 "$e2" '.materials as $m |
+    .geometry.final as $g | ($m.mesh_quality // {}) as $q |
+    "| \($s) | \($m.ior * 1000 | round / 1000) (\($m.ior_true)) | \($m.ior_error * 1000 | round / 1000) | \($m.test.psnr * 100 | round / 100) | \($m.test.psnr_mask * 100 | round / 100) | \($m.test.ssim * 1000 | round / 1000) | \($g.chamfer * 1e7 | round / 1e7) → \(($m.chamfer // $g.chamfer) * 1e7 | round / 1e7) | \($g.f1 * 1e4 | round / 1e4) → \(($m.f1 // $g.f1) * 1e4 | round / 1e4) | \($e1) → \($e2) | \(if $q.stage1 then "\($q.stage1.mean_dihedral_degrees * 100 | round / 100) → \($q.stage2.mean_dihedral_degrees * 100 | round / 100)" else "–" end) | \($b1) | \($b2) | \($m.fit_seconds | round) s | \($rss) |"' "$r"
 done

@@ -178,20 +178,23 @@ struct Stage2Config {
   // with that smoothed error is 0.36 at λ 19, 0.74 at λ 1 (spot-clear), and
   // the smoothed clipped gradient points home best at λ 0.5–1 (cosine of a
   // 20-batch mean 0.17 at λ 19, 0.42 at λ 1; on horse-green −0.04 at λ 19).
-  // Joint fits, CD stage 2 / stage 1 at λ 19 → 1: spot-clear 0.770 → 0.532,
-  // horse-green 0.909 → 0.731, monkey-bands 1.545 → 1.456; but λ 1 roughens
+  // Joint fits, CD stage 2 / stage 1 at λ 19 and at λ 1: spot-clear 0.770
+  // and 0.532, horse-green 0.909 and 0.731, monkey-bands 1.545 and 1.456; but λ 1 roughens
   // the surface (mean dihedral angle up 12–32 % on horse, bunny, the holed
   // slab), the slab gets worse (1.196), and a smoothly dented sphere
-  // converges slower (tests/pipeline/materials). Hence still 19: λ from
-  // coarse to fine is the next step (docs/stage2-diagnostics.md, "home").
+  // converges slower (tests/pipeline/materials). Hence 19 at the start and
+  // lambda_final at the end.
   double lambda = 19.0;
   // Coarse to fine: λ falls from `lambda` to lambda_final at each halving of
   // the blur (every blur_halving iterations of the geometry phase),
   // geometrically, so that the last stage, against the sharpest map, moves
   // at lambda_final. A new λ keeps the positions and restarts the vertices'
   // Adam moments (LargeStepsOptimizer::change_lambda). Negative: `lambda`
-  // throughout.
-  double lambda_final = -1.0;
+  // throughout. CD stage 2 / stage 1 at λ 19, 1 and 19 → 1: spot-clear
+  // 0.770, 0.532, 0.597; horse-green 0.909, 0.731, 0.801; mean dihedral angle
+  // 8.18°, 8.04°, 7.98° and 14.84°, 16.50°, 15.49° (docs/stage2-diagnostics.md,
+  // "coarse to fine").
+  double lambda_final = 1.0;
   // unknowns
   float ior_init = 1.5f;
   float ior_min = 1.0f, ior_max = 3.0f;
@@ -404,9 +407,9 @@ struct Stage2Config {
     v(Field{"optimize_ior", "", "fit the IoR"}, c.optimize_ior);
     v(Field{"optimize_absorption", "", "fit the absorption grid"}, c.optimize_absorption);
     v(Field{"geometry_optimized", "--materials-geometry",
-            "move the vertices too (stage-1 CD -> stage 2, quick variants: spot-clear 2.46e-5 -> 1.89e-5, horse-green "
-            "3.00e-5 -> 2.73e-5, monkey-bands 2.60e-5 -> 4.01e-5: its 8^3 absorption is coarser than its bands; "
-            "--materials-lambda 1: 1.31e-5, 2.20e-5, 3.78e-5, rougher surfaces)"},
+            "move the vertices too (stage-1 CD -> stage 2, quick variants: spot-clear 2.46e-5 -> 1.47e-5, horse-green "
+            "3.00e-5 -> 2.41e-5, bunny-clear 1.99e-4 -> 1.88e-4; worse on monkey-bands 2.60e-5 -> 4.28e-5 and a "
+            "slab with holes 8.19e-5 -> 9.16e-5)"},
       c.optimize_positions);
     v(Field{"absorption_res", "--absorption-res", "absorption grid vertices per axis (the finest grid auto tries)", 2,
             256},
