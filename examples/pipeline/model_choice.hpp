@@ -27,6 +27,11 @@ struct PairedComparison {
   bool richer_wins(double sigmas, double min_gain) const {
     return pixels > 1 && gain > sigmas * standard_error && gain > min_gain * simpler;
   }
+  // beyond `sigmas` standard errors, but short of `min_gain`: a real gain
+  // the rule still turns down (Stage2Config::finer_grid_for_vertices)
+  bool short_of_min_gain(double sigmas, double min_gain) const {
+    return richer_wins(sigmas, 0.0) && !richer_wins(sigmas, min_gain);
+  }
 };
 
 inline PairedComparison compare_paired(const std::vector<double>& simpler, const std::vector<double>& richer) {

@@ -24,10 +24,14 @@ TEST_CASE("paired comparison: the mean difference, its standard error, pixels le
   CHECK(c.richer_wins(2.0, 0.1));        // 2 > 2 · 0.577 and 2 > 0.1 · 12
   CHECK_FALSE(c.richer_wins(4.0, 0.1));  // not 4 standard errors
   CHECK_FALSE(c.richer_wins(2.0, 0.2));  // not 20 % of the loss
+  CHECK(c.short_of_min_gain(2.0, 0.2));        // ... but beyond 2 standard errors
+  CHECK_FALSE(c.short_of_min_gain(4.0, 0.2));  // not significant either
+  CHECK_FALSE(c.short_of_min_gain(2.0, 0.1));  // kept outright
   // the richer one worse: never kept
   const pipeline::PairedComparison w = pipeline::compare_paired(richer, simpler);
   CHECK(w.gain == doctest::Approx(-2.0));
   CHECK_FALSE(w.richer_wins(0.0, 0.0));
+  CHECK_FALSE(w.short_of_min_gain(0.0, 0.5));
   // one pixel: no standard error, no decision for the richer
   CHECK_FALSE(pipeline::compare_paired({2.0}, {1.0}).richer_wins(0.0, 0.0));
 }
