@@ -331,6 +331,10 @@ struct Stage2Config {
   // interactions (TraceSettings::gradient_refractions; 2: entry and exit, as
   // DRT does); the colour is still the whole tree's. 0: every branch.
   int geometry_refractions = 0;
+  // While the vertices move, their gradient flows only through the branches
+  // of the first geometry_depth interactions (TraceSettings::gradient_depth);
+  // deeper light is a constant. 0: every depth.
+  int geometry_depth = 0;
   // Per-ray clip of the IoR derivative (ray_batch_gradient's clip_ior, as
   // clip_ior / rays); 0: off. Near the critical angle a ray's IoR derivative
   // has a heavy tail: unclipped, a batch's IoR gradient on spot-clear (true
@@ -487,6 +491,11 @@ struct Stage2Config {
             "while the vertices move, their gradient flows through the main refraction path's first N "
             "interactions only (2: entry and exit; 0: every branch)", 0, render::max_trace_depth},
       c.geometry_refractions);
+    v(Field{"geometry_depth", "--materials-geometry-depth",
+            "while the vertices move, their gradient flows through the branches of the first N interactions only "
+            "(0: every depth)",
+            0, render::max_trace_depth},
+      c.geometry_depth);
     v(Field{"clip_ior", "--materials-clip-ior", "per-ray clip of the IoR derivative (0: off)", 0, 1e30}, c.clip_ior);
     v(Field{"weights", "", "loss weights"}, c.weights);
     v(Field{"seed", "", "seed of the ray batches"}, c.seed);
@@ -766,6 +775,7 @@ class Stage2 {
     PassOptions po;
     po.trace = config_.trace;
     po.trace.gradient_refractions = st.geometry_moving ? config_.geometry_refractions : 0;
+    po.trace.gradient_depth = st.geometry_moving ? config_.geometry_depth : 0;
     const float inv_n = 1.0f / float(std::max<std::size_t>(1, target.size()));
     const Stage2Weights& w = config_.weights;
     const int k = std::max(1, config_.pixel_samples);

@@ -336,6 +336,28 @@ const std::vector<std::string> ray_classes = {"miss", "hits_1_2", "hits_3_4", "h
 
 // ------------------------------------------------------------------ gradcheck
 
+// The true object (SCENE/gt/mesh.obj or gt_mesh) with the setup's material and environment.
+HostScene true_scene(Setup& setup, const fs::path& gt_mesh) {
+  const fs::path gt_path = gt_mesh.empty() ? setup.data().gt.mesh : gt_mesh;
+  if (gt_path.empty() || !fs::exists(gt_path)) throw io::Error(gt_path.empty() ? "gt/mesh.obj" : gt_path, "true mesh not found (give --gt-mesh)");
+  HostScene truth = render::make_host_scene(cli::load_mesh(gt_path), setup.material(), "truth");
+  cli::apply_environment(truth, setup.environment());
+  return truth;
+}
+
+// Δ: each vertex of x to its nearest point of the true surface.
+std::vector<double> delta_to_truth(const std::vector<float>& x, const HostScene& truth) {
+  std::vector<double> delta(x.size());
+  const geometry::ClosestPointTree tree(truth.mesh.positions, truth.mesh.triangles);
+  for (std::size_t v = 0; v < x.size() / 3; ++v) {
+    const glm::vec3 p(x[3 * v], x[3 * v + 1], x[3 * v + 2]);
+    const glm::vec3 q = tree.closest(p).point;
+    for (int c = 0; c < 3; ++c) delta[3 * v + std::size_t(c)] = double(q[c]) - double(p[c]);
+  }
+  return delta;
+}
+
+
 // Smooth displacement fields: the vertex normal times a smooth function of
 // position, scaled to an RMS displacement of 1 per vertex.
 std::vector<double> displacement_field(const scene::TriangleMesh& m, const std::string& name) {
@@ -347,7 +369,7 @@ std::vector<double> displacement_field(const scene::TriangleMesh& m, const std::
     double f = 1.0;
     if (name == "wave1") f = std::cos(2.0 * pi * glm::dot(axis, p) + 0.3);
     else if (name == "wave3") f = std::cos(6.0 * pi * glm::dot(axis, p) + 0.3) * std::cos(4.0 * pi * p.y);
-    else if (name != "inflate") throw CLI::ValidationError("--fields", "'" + name + "' is not a field (inflate, wave1, wave3)");
+    else if (name != "inflate") throw CLI::ValidationError("--fields", "'" + name + "' is not a field (inflate, wave1, wave3, home)");
     for (int c = 0; c < 3; ++c) d[3 * std::size_t(v) + c] = f * double(m.vertex_normals[3 * std::size_t(v) + c]);
   }
   const double rms = norm(d) / std::sqrt(double(std::max<std::int32_t>(1, m.num_vertices())));
@@ -445,8 +467,17 @@ io::Json gradcheck(Setup& setup, const GradcheckOptions& o, bool& passed) {
   passed = true;
   for (const std::string& name : o.fields) {
     cli::progress("gradcheck: field " + name);
-    const std::vector<double> field = displacement_field(s.mesh, name);
     io::Json fj;
+    std::vector<double> field;
+    if (name == "home") {  // Δ towards the true surface, scaled to an RMS of 1 per vertex
+      field = delta_to_truth(x0, true_scene(setup, {}));
+      const double rms = norm(field) / std::sqrt(double(std::max<std::int32_t>(1, s.mesh.num_vertices())));
+      if (!(rms > 0.0)) throw std::runtime_error("the mesh lies on the true surface: no 'home' field");
+      fj["rms_to_truth"] = rms;
+      for (double& x : field) x /= rms;
+    } else {
+      field = displacement_field(s.mesh, name);
+    }
     fj["field"] = name;
     // reverse mode at x, double and float tapes, unclipped and clipped as stage 2
     s.mesh.positions = x0;
@@ -636,22 +667,9 @@ std::vector<double> preconditioned(const optim::LargeSteps& m, const std::vector
 
 io::Json home(Setup& setup, const HomeOptions& o) {
   HostScene& s = setup.scene();
-  const fs::path gt_path = o.gt_mesh.empty() ? setup.data().gt.mesh : o.gt_mesh;
-  if (gt_path.empty() || !fs::exists(gt_path)) throw io::Error(gt_path.empty() ? "gt/mesh.obj" : gt_path, "true mesh not found (give --gt-mesh)");
-  const io::Mesh gt_mesh = cli::load_mesh(gt_path);
-  HostScene truth = render::make_host_scene(gt_mesh, setup.material(), "truth");
-  cli::apply_environment(truth, setup.environment());
+  HostScene truth = true_scene(setup, o.gt_mesh);
   const std::vector<float> x0 = s.mesh.positions;
-  // Δ: each vertex to its nearest point of the true surface
-  std::vector<double> delta(x0.size()), delta_unit;
-  {
-    const geometry::ClosestPointTree tree(truth.mesh.positions, truth.mesh.triangles);
-    for (std::size_t v = 0; v < x0.size() / 3; ++v) {
-      const glm::vec3 p(x0[3 * v], x0[3 * v + 1], x0[3 * v + 2]);
-      const glm::vec3 q = tree.closest(p).point;
-      for (int c = 0; c < 3; ++c) delta[3 * v + std::size_t(c)] = double(q[c]) - double(p[c]);
-    }
-  }
+  std::vector<double> delta = delta_to_truth(x0, truth), delta_unit;
   const double delta_norm = norm(delta);
   delta_unit = delta;
   for (double& x : delta_unit) x /= delta_norm;
@@ -1134,7 +1152,10 @@ int main(int argc, char** argv) {
 
   CLI::App* g = app.add_subcommand("gradcheck", "AD against central differences of the stage-2 loss on one fixed batch");
   add_common(g, common);
-  g->add_option("--fields", fields, "Displacement fields: inflate, wave1, wave3")->capture_default_str();
+  g->add_option("--fields", fields,
+                "Displacement fields: inflate, wave1, wave3, home (towards the nearest points of the true mesh, "
+                "SCENE/gt/mesh.obj)")
+      ->capture_default_str();
   g->add_option("--steps", steps, "Central-difference steps (RMS vertex displacement)")->capture_default_str();
   g->add_option("--tolerance", gc.ray_tolerance,
                 "A ray's FD agrees with its AD when |FD - AD| <= TOL (|AD| + 1e-3 RMS(AD))")->capture_default_str();

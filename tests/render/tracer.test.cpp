@@ -561,6 +561,45 @@ TEST_CASE("streamed reverse mode: the same gradient on a tape bounded by the dep
   }
 }
 
+TEST_CASE("gradient_depth: the derivative of the tree cut at k, the deeper light held fixed") {
+  // Branches deeper than k are traced off the tape and add a constant (their
+  // weight included), so the gradient equals that of the same tree stopped at
+  // k interactions, while the radiance is the full tree's.
+  HostScene s = make_scene(make_icosphere(0.5f, 2), 1.5f);
+  smooth_environment(s);
+  s.set_homogeneous_absorption(Vec3f(0.5f, 1.0f, 2.0f));
+  const auto rays = rays_towards_centre(Vec3f(0.2f, 0.4f, 3.0f), 0.45f, 16);
+  const Vec3d w(0.7, 1.0, 1.3);
+  TraceSettings full;
+  full.max_depth = 8;
+  for (const int k : {1, 2, 4}) {
+    CAPTURE(k);
+    TraceSettings gated = full, cut = full;
+    gated.gradient_depth = k;
+    cut.max_depth = k;
+    const SceneGradient g = loss_gradient(s, rays, w, gated), g_cut = loss_gradient(s, rays, w, cut),
+                        g_full = loss_gradient(s, rays, w, full);
+    CHECK(g.ior[0] == doctest::Approx(g_cut.ior[0]).epsilon(1e-5));
+    double worst = 0.0, scale = 0.0, differs = 0.0;
+    for (std::size_t i = 0; i < g.positions.size(); ++i) {
+      worst = std::max(worst, double(std::abs(g.positions[i] - g_cut.positions[i])));
+      scale = std::max(scale, double(std::abs(g_cut.positions[i])));
+      differs = std::max(differs, double(std::abs(g.positions[i] - g_full.positions[i])));
+    }
+    CHECK(worst <= 1e-5 * scale);
+    CHECK(differs > 1e-3 * scale);  // the deeper branches' derivatives are left out
+    for (int c = 0; c < 3; ++c) CHECK(g.absorption[std::size_t(c)] == doctest::Approx(g_cut.absorption[std::size_t(c)]).epsilon(1e-5));
+    for (const auto& r : rays)  // the radiance of the whole tree
+      CHECK(glm::length(trace_value<double>(s, r, gated) - trace_value<double>(s, r, full)) < 1e-12);
+  }
+  // k at or beyond the depth: every branch, the full gradient
+  TraceSettings all = full;
+  all.gradient_depth = full.max_depth;
+  const SceneGradient a = loss_gradient(s, rays, w, all), b = loss_gradient(s, rays, w, full);
+  CHECK(a.positions == b.positions);
+  CHECK(a.ior == b.ior);
+}
+
 TEST_CASE("gradient_refractions: derivatives along the main refraction path only") {
   // A parallel plate at normal incidence: the main path (entry, exit) brings
   // (1 − R)² a A, every other branch adds a constant, so with

@@ -61,6 +61,14 @@ struct TraceSettings {
   // point the vertex gradient closer to the true surface once smoothed as
   // stage 2 steps (docs/stage2-diagnostics.md, "home"): an option there.
   int gradient_refractions = 0;
+  // 0: every depth. k > 0: only the branches of the first k interactions
+  // carry derivatives (reflections as well as refractions); a branch deeper
+  // than k is traced in plain floating point and adds a constant, its weight
+  // included, so the derivative is that of the tree cut at k with the deeper
+  // light held fixed. Beyond about 8 interactions a path's derivative is
+  // carried by a few chaotic rays (docs/stage2-diagnostics.md, "gradcheck at
+  // depth").
+  int gradient_depth = 0;
 };
 
 // What happened along one camera ray (counted on values).
@@ -171,9 +179,10 @@ DT_HOST_DEVICE FixedEscape<Radiance> fixed_escape(const Radiance& r) {
 namespace detail {
 
 // Whether a branch (its depth and path bits) carries derivatives under
-// TraceSettings::gradient_refractions: all branches, or the all-refracted
-// path (path = 0b1…1) up to that depth.
+// TraceSettings::gradient_depth (none deeper) and gradient_refractions: all
+// branches, or the all-refracted path (path = 0b1…1) up to that depth.
 DT_HOST_DEVICE inline bool carries_derivatives(const TraceSettings& settings, int depth, std::uint32_t path) {
+  if (settings.gradient_depth > 0 && depth > settings.gradient_depth) return false;
   return settings.gradient_refractions <= 0 ||
          (depth <= settings.gradient_refractions && (path & (path + 1u)) == 0u);
 }
