@@ -221,7 +221,8 @@ struct Stage2Config {
   // is kept: the vertices move with the absorption held still, and take up
   // what a coarse grid leaves of the colour. monkey-bands (quick variant,
   // λ 19 → 1): 16³ against 8³ gained 1.60 % ± 0.32 %; CD stage 2 / stage 1
-  // 1.647 with the 8³ grid, 0.864 with 16³.
+  // 1.647 with the 8³ grid, 1.261 with this rule, 0.864 with 16³ forced
+  // (`--absorption grid`, fitted from the absorption search's start).
   bool finer_grid_for_vertices = true;
   float selection_lr_absorption = 2e-2f;  // the candidates' absorption rate (raw parameters)
   // Held-out pixels brighter than this times their batch's median
@@ -333,8 +334,14 @@ struct Stage2Config {
   int geometry_refractions = 0;
   // While the vertices move, their gradient flows only through the branches
   // of the first geometry_depth interactions (TraceSettings::gradient_depth);
-  // deeper light is a constant. 0: every depth.
-  int geometry_depth = 0;
+  // deeper light is a constant. 0: every depth. Beyond about 8 interactions
+  // the derivative is carried by a few chaotic rays, clipped to the same norm
+  // as every other (docs/stage2-diagnostics.md, "gradcheck at depth"). CD
+  // stage 2 / stage 1 with every depth and with 4 (λ 19 → 1, quick
+  // variants; seeds 1 and 2): spot-clear 0.597, 0.620 and 0.518, 0.533;
+  // horse-green 0.801, 0.854 and 0.725, 0.828; bunny-clear 0.945 and 0.901;
+  // the slab with 3 holes 1.117 and 1.153 (seed 1).
+  int geometry_depth = 4;
   // Per-ray clip of the IoR derivative (ray_batch_gradient's clip_ior, as
   // clip_ior / rays); 0: off. Near the critical angle a ray's IoR derivative
   // has a heavy tail: unclipped, a batch's IoR gradient on spot-clear (true
@@ -419,9 +426,9 @@ struct Stage2Config {
     v(Field{"optimize_ior", "", "fit the IoR"}, c.optimize_ior);
     v(Field{"optimize_absorption", "", "fit the absorption grid"}, c.optimize_absorption);
     v(Field{"geometry_optimized", "--materials-geometry",
-            "move the vertices too (stage-1 CD -> stage 2, quick variants: spot-clear 2.46e-5 -> 1.47e-5, horse-green "
-            "3.00e-5 -> 2.41e-5, bunny-clear 1.99e-4 -> 1.88e-4; worse on monkey-bands 2.60e-5 -> 4.28e-5 and a "
-            "slab with holes 8.19e-5 -> 9.16e-5)"},
+            "move the vertices too (stage-1 CD -> stage 2, quick variants: spot-clear 2.46e-5 -> 1.27e-5, horse-green "
+            "3.00e-5 -> 2.18e-5, bunny-clear 1.99e-4 -> 1.79e-4; worse on monkey-bands 2.60e-5 -> 3.74e-5 and a "
+            "slab with holes 8.19e-5 -> 9.45e-5)"},
       c.optimize_positions);
     v(Field{"absorption_res", "--absorption-res", "absorption grid vertices per axis (the finest grid auto tries)", 2,
             256},
