@@ -12,6 +12,7 @@
 #include <random>
 #include <stdexcept>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "difftrans/io/mesh.hpp"
@@ -134,14 +135,26 @@ inline GeometryMetrics compare_point_sets(const std::vector<Vec3d>& predicted, c
 }
 
 // The protocol's geometry metrics of a predicted mesh against the ground truth.
-inline GeometryMetrics evaluate_geometry(const io::Mesh& predicted, const io::Mesh& truth,
-                                         const GeometryOptions& options = {}) {
-  io::Mesh p = predicted, q = truth;
+namespace detail {
+
+// Both meshes in the frame of the metrics: the truth's unit box when
+// options.normalize, as given otherwise.
+inline std::pair<io::Mesh, io::Mesh> metric_frame(const io::Mesh& predicted, const io::Mesh& truth,
+                                                  const GeometryOptions& options) {
+  std::pair<io::Mesh, io::Mesh> m{predicted, truth};
   if (options.normalize) {
     const io::UnitBoxTransform transform = io::unit_box_transform(truth);
-    io::apply_transform(transform, p);
-    io::apply_transform(transform, q);
+    io::apply_transform(transform, m.first);
+    io::apply_transform(transform, m.second);
   }
+  return m;
+}
+
+}  // namespace detail
+
+inline GeometryMetrics evaluate_geometry(const io::Mesh& predicted, const io::Mesh& truth,
+                                         const GeometryOptions& options = {}) {
+  const auto [p, q] = detail::metric_frame(predicted, truth, options);
   const auto points_p = sample_surface(p, options.samples, options.seed);
   const auto points_q = sample_surface(q, options.samples, options.seed);
   return compare_point_sets(points_p, points_q, options.tau, options.threads);
@@ -154,12 +167,7 @@ inline GeometryMetrics evaluate_geometry(const io::Mesh& predicted, const io::Me
 // spacing, not 0).
 inline std::vector<double> vertex_distances(const io::Mesh& predicted, const io::Mesh& truth,
                                             const GeometryOptions& options = {}) {
-  io::Mesh p = predicted, q = truth;
-  if (options.normalize) {
-    const io::UnitBoxTransform transform = io::unit_box_transform(truth);
-    io::apply_transform(transform, p);
-    io::apply_transform(transform, q);
-  }
+  const auto [p, q] = detail::metric_frame(predicted, truth, options);
   std::vector<Vec3d> vertices(p.positions.size());
   for (std::size_t v = 0; v < vertices.size(); ++v) vertices[v] = Vec3d(p.positions[v]);
   std::vector<double> d = nearest_squared_distances(vertices, sample_surface(q, options.samples, options.seed),
