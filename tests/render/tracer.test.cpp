@@ -13,6 +13,8 @@
 #include <cmath>
 #include <cstdint>
 #include <numeric>
+#include <utility>
+#include <vector>
 
 #include "difftrans/render/host_scene.hpp"
 #include "difftrans/render/passes.hpp"
@@ -450,34 +452,44 @@ TEST_CASE("forward and reverse mode agree") {
   HostScene s = make_scene(make_icosphere(0.5f, 2), 1.5f);
   smooth_environment(s);
   s.set_homogeneous_absorption(Vec3f(0.5f, 1.0f, 2.0f));
-  TraceSettings ts;
-  ts.max_depth = 6;
+  TraceSettings tree;
+  tree.max_depth = 6;
+  TraceSettings drawn;  // one path beyond the tree of 3, to 12
+  drawn.max_depth = 12;
+  drawn.tree_depth = 3;
+  TraceSettings roulette = drawn;
+  roulette.roulette = true;
+  roulette.prune_throughput = 0.05f;
   const auto rays = rays_towards_centre(Vec3f(0.2f, 0.4f, 3.0f), 0.4f, 8);
   const Vec3d w(1.0, 0.5, 0.25);
-  const SceneGradient g = loss_gradient(s, rays, w, ts);
   // a direction touching every buffer
   std::vector<float> dp(s.mesh.positions.size()), de(s.environment.size()), da(s.absorption_raw.size());
   float di = 0.7f;
   for (std::size_t i = 0; i < dp.size(); ++i) dp[i] = std::sin(0.37f * float(i));
   for (std::size_t i = 0; i < de.size(); ++i) de[i] = std::cos(0.11f * float(i));
   for (std::size_t i = 0; i < da.size(); ++i) da[i] = 0.5f - float(i);
-  double reverse = di * g.ior[0];
-  for (std::size_t i = 0; i < dp.size(); ++i) reverse += double(dp[i]) * g.positions[i];
-  for (std::size_t i = 0; i < de.size(); ++i) reverse += double(de[i]) * g.environment[i];
-  for (std::size_t i = 0; i < da.size(); ++i) reverse += double(da[i]) * g.absorption[i];
-  using D = ad::Dual<double, 1>;
-  ad::ParamSet params = s.params();
-  params.buffers[difftrans::render::param_positions].tangents[0] = dp.data();
-  params.buffers[difftrans::render::param_ior].tangents[0] = &di;
-  params.buffers[difftrans::render::param_environment].tangents[0] = de.data();
-  params.buffers[difftrans::render::param_absorption].tangents[0] = da.data();
-  ad::ParamReader<D> reader(&params);
-  double forward = 0;
-  for (const auto& r : rays) {
-    const Vec3<D> L = difftrans::render::trace<D>(s.view(true), s.accel(), reader, r.o, r.d, ts);
-    for (int c = 0; c < 3; ++c) forward += w[c] * L[c].grad[0];
+  for (const auto& [name, ts] : {std::pair<const char*, TraceSettings>{"tree", tree}, {"drawn path", drawn},
+                                 {"drawn path and roulette", roulette}}) {
+    CAPTURE(name);
+    const SceneGradient g = loss_gradient(s, rays, w, ts);
+    double reverse = di * g.ior[0];
+    for (std::size_t i = 0; i < dp.size(); ++i) reverse += double(dp[i]) * g.positions[i];
+    for (std::size_t i = 0; i < de.size(); ++i) reverse += double(de[i]) * g.environment[i];
+    for (std::size_t i = 0; i < da.size(); ++i) reverse += double(da[i]) * g.absorption[i];
+    using D = ad::Dual<double, 1>;
+    ad::ParamSet params = s.params();
+    params.buffers[difftrans::render::param_positions].tangents[0] = dp.data();
+    params.buffers[difftrans::render::param_ior].tangents[0] = &di;
+    params.buffers[difftrans::render::param_environment].tangents[0] = de.data();
+    params.buffers[difftrans::render::param_absorption].tangents[0] = da.data();
+    ad::ParamReader<D> reader(&params);
+    double forward = 0;
+    for (const auto& r : rays) {
+      const Vec3<D> L = difftrans::render::trace<D>(s.view(true), s.accel(), reader, r.o, r.d, ts);
+      for (int c = 0; c < 3; ++c) forward += w[c] * L[c].grad[0];
+    }
+    CHECK(forward == doctest::Approx(reverse).epsilon(1e-5));
   }
-  CHECK(forward == doctest::Approx(reverse).epsilon(1e-5));
 }
 
 TEST_CASE("streamed reverse mode: the same gradient on a tape bounded by the depth") {
