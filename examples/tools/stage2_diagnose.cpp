@@ -42,6 +42,7 @@
 #include <iostream>
 #include <map>
 #include <memory>
+#include <numeric>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -555,6 +556,33 @@ io::Json gradcheck(Setup& setup, const GradcheckOptions& o, bool& passed) {
           }
           const double ad_rev = dot(g_double, d);
           sj["ad_reverse_double"] = ad_rev;
+          if (h == o.steps.front()) {
+            // the rays with the largest forward derivative, each also in reverse mode on its own: where the
+            // batch's forward and reverse sums part, is it these rays, and do the two modes agree on each?
+            std::vector<std::size_t> order(n);
+            std::iota(order.begin(), order.end(), std::size_t(0));
+            const std::size_t top = std::min<std::size_t>(8, n);
+            std::partial_sort(order.begin(), order.begin() + std::ptrdiff_t(top), order.end(),
+                              [&](std::size_t a, std::size_t b) { return std::abs(adv[a]) > std::abs(adv[b]); });
+            io::Json largest = io::Json::array();
+            for (std::size_t r = 0; r < top; ++r) {
+              const std::size_t j = order[r];
+              const LossFn one = [&](std::int32_t, const Vec3f& L, Vec3f& dL) {
+                const auto l = stage.ray_loss(L, target[j], inv_n);
+                dL = l.adjoint;
+                return l.value;
+              };
+              const double reverse_j = dot(vertex_gradient<double>(s, std::vector<BatchRay>{rays[j]}, one, ts), d);
+              largest.push_back({{"ray", j},
+                                 {"forward", adv[j]},
+                                 {"reverse", reverse_j},
+                                 {"fd", fd[j]},
+                                 {"segments", fwd[j].stats.segments},
+                                 {"hits", fwd[j].stats.hits},
+                                 {"tir", fwd[j].stats.tir}});
+            }
+            sj["largest_rays"] = largest;
+          }
           sj["ad_reverse_float"] = dot(g_float, d);
           sj["ad_reverse_clipped"] = dot(g_clipped, d);
           sj["ad_forward"] = ad_fwd;
