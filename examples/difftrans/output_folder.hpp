@@ -164,6 +164,11 @@ class OutputDir {
   const std::filesystem::path& path() const { return work_.path(); }
   const std::filesystem::path& final_path() const { return final_; }
 
+  void commit() {
+    detail::replace_folder(work_.path(), final_);
+    committed_ = true;
+  }
+
  private:
   // OUT, once it is known that it may be replaced (before any work folder exists)
   static std::filesystem::path checked(std::filesystem::path out, bool overwrite,
@@ -189,14 +194,6 @@ class OutputDir {
     return out;
   }
 
- public:
-
-  void commit() {
-    detail::replace_folder(work_.path(), final_);
-    committed_ = true;
-  }
-
- private:
   std::filesystem::path final_;
   detail::WorkFolder work_;
   bool committed_ = false;

@@ -86,12 +86,20 @@ class LargeSteps {
     return set_topology(triangles.data(), std::int32_t(triangles.size() / 3), num_vertices);
   }
 
-  // A new λ takes effect at the next set_topology (which then refactorizes).
+  // A new λ takes effect at the next set_topology (which then refactorizes)
+  // or refactor_lambda.
   void set_lambda(double lambda) { lambda_ = lambda; }
   double lambda() const { return lambda_; }
+  // Refactorizes M on the current topology when λ changed since the factor;
+  // returns whether it had to.
+  bool refactor_lambda() {
+    require();
+    if (lambda_ == factored_lambda_) return false;
+    factorize();
+    return true;
+  }
 
   std::int32_t num_vertices() const { return num_vertices_; }
-  const std::vector<std::int32_t>& triangles() const { return triangles_; }
   // How many times M has been factorized: unchanged while the topology is.
   int factorizations() const { return factorizations_; }
   const SparseMatrixd& matrix() const { return M_; }
@@ -206,9 +214,7 @@ class LargeStepsOptimizer {
     if (lambda == steps_.lambda()) return false;
     if (x.size() != u_.size()) throw std::invalid_argument("LargeStepsOptimizer::change_lambda: size mismatch");
     steps_.set_lambda(lambda);
-    const std::int32_t n = steps_.num_vertices();
-    const std::vector<std::int32_t> triangles = steps_.triangles();
-    steps_.set_topology(triangles, n);
+    steps_.refactor_lambda();
     u_ = steps_.to_u(x);
     adam_.reset(u_.size());
     return true;
