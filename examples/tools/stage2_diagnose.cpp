@@ -413,6 +413,131 @@ struct Agreement {
   }
 };
 
+// One branch of a ray's Fresnel tree as the tracer took it: where it starts,
+// where it goes, its weight and the light it brought back (escaping there).
+template <class S>
+struct BranchRecord {
+  std::uint32_t path;
+  int depth;
+  Vec3<S> origin, direction, weight, light;
+};
+
+// A follow() collector that sums like SumBranches and logs every branch taken.
+template <class S>
+struct LogBranches {
+  std::vector<BranchRecord<S>>* log;
+  void made(render::detail::Branch<S>&) const {}
+  void taken(const render::detail::Branch<S>& b) const {
+    log->push_back({b.path, b.depth, b.origin, b.direction, b.weight, Vec3<S>(S(0), S(0), S(0))});
+  }
+  void add(Vec3<S>& radiance, const Vec3<S>& light) const {
+    radiance += light;
+    if (!log->empty()) log->back().light += light;
+  }
+};
+
+template <class S>
+std::vector<BranchRecord<S>> branch_log(const HostScene& s, const BatchRay& r, const TraceSettings& settings,
+                                        const std::vector<float>* direction) {
+  std::vector<BranchRecord<S>> log;
+  ad::ParamSet params = s.params();
+  if (direction) params.buffers[render::param_positions].tangents[0] = direction->data();
+  const render::SceneView view = s.view(direction != nullptr);
+  s.with_escape([&](const auto& escape) {
+    ad::ParamReader<S> reader(&params);
+    render::detail::trace_camera_ray<S>(view, s.accel(), reader, r.origin, r.direction, settings, nullptr, escape,
+                                        LogBranches<S>{&log});
+  });
+  return log;
+}
+
+// Branch by branch, the forward derivative (along d) of a ray's origins,
+// directions, weights and light against central differences of the same
+// branch (matched by its path bits) at x ± h d: the first branch where they
+// part says which interaction a ray's large derivative comes from.
+io::Json explain_ray(Setup& setup, const BatchRay& ray, const TraceSettings& settings, const std::vector<float>& x0,
+                     const std::vector<float>& xp, const std::vector<float>& xm, const std::vector<float>& d, double h) {
+  using D = ad::Dual<double, 1>;
+  HostScene& s = setup.scene();
+  setup.set_positions(xp);
+  const auto plus = branch_log<double>(s, ray, settings, nullptr);
+  setup.set_positions(xm);
+  const auto minus = branch_log<double>(s, ray, settings, nullptr);
+  setup.set_positions(x0);
+  const auto at = branch_log<D>(s, ray, settings, &d);
+  const auto find = [](const std::vector<BranchRecord<double>>& log, std::uint32_t path) {
+    for (const auto& b : log)
+      if (b.path == path) return &b;
+    return static_cast<const BranchRecord<double>*>(nullptr);
+  };
+  // largest |AD − FD| over a vector's components, and the |AD| there
+  const auto part = [](const Vec3<D>& ad, const Vec3d& p, const Vec3d& m, double step, io::Json& out) {
+    double worst = 0.0;
+    io::Json a = io::Json::array(), f = io::Json::array();
+    for (int c = 0; c < 3; ++c) {
+      const double fd = (p[c] - m[c]) / (2.0 * step);
+      a.push_back(ad[c].grad[0]);
+      f.push_back(fd);
+      worst = std::max(worst, std::abs(ad[c].grad[0] - fd));
+    }
+    out = {{"ad", a}, {"fd", f}};
+    return worst;
+  };
+  io::Json branches = io::Json::array();
+  for (const auto& b : at) {
+    io::Json bj = {{"path", b.path}, {"depth", b.depth}};
+    const auto* p = find(plus, b.path);
+    const auto* m = find(minus, b.path);
+    bj["weight"] = {b.weight.x.value, b.weight.y.value, b.weight.z.value};
+    bj["light"] = {b.light.x.value, b.light.y.value, b.light.z.value};
+    if (!p || !m) {
+      bj["in_both_neighbours"] = false;
+    } else {
+      io::Json o, dir, w, l;
+      const double eo = part(b.origin, p->origin, m->origin, h, o);
+      const double ed = part(b.direction, p->direction, m->direction, h, dir);
+      const double ew = part(b.weight, p->weight, m->weight, h, w);
+      const double el = part(b.light, p->light, m->light, h, l);
+      bj["origin"] = o, bj["direction"] = dir, bj["weight_derivative"] = w, bj["light_derivative"] = l;
+      bj["largest_difference"] = {{"origin", eo}, {"direction", ed}, {"weight", ew}, {"light", el}};
+    }
+    branches.push_back(bj);
+  }
+  return branches;
+}
+
+// How a branch's direction derivative (along d, forward mode) grows with its
+// depth over the first `count` rays: per depth the median and 90th percentile
+// of |∂direction| over the branches whose weight is at least 0.01, and the
+// median's growth from the depth before. A factor well above 1 per
+// interaction means a chaotic path, whose derivative is true at the point and
+// useless over any step that moves the light (docs/stage2-diagnostics.md).
+io::Json direction_growth(HostScene& s, const std::vector<BatchRay>& rays, std::size_t count,
+                          const TraceSettings& settings, const std::vector<float>& d) {
+  using D = ad::Dual<double, 1>;
+  std::vector<std::vector<double>> by_depth(std::size_t(render::max_trace_depth + 1));
+  for (std::size_t i = 0; i < std::min(count, rays.size()); ++i)
+    for (const auto& b : branch_log<D>(s, rays[i], settings, &d)) {
+      if (b.depth < 1 || std::max({b.weight.x.value, b.weight.y.value, b.weight.z.value}) < 0.01) continue;
+      const double g = std::sqrt(square(b.direction.x.grad[0]) + square(b.direction.y.grad[0]) +
+                                 square(b.direction.z.grad[0]));
+      by_depth[std::size_t(b.depth)].push_back(g);
+    }
+  io::Json out = io::Json::array();
+  double last = 0.0;
+  for (std::size_t k = 1; k < by_depth.size(); ++k) {
+    std::vector<double>& v = by_depth[k];
+    if (v.empty()) break;
+    std::sort(v.begin(), v.end());
+    const double median = v[v.size() / 2], p90 = v[std::min(v.size() - 1, v.size() * 9 / 10)];
+    io::Json row = {{"depth", k}, {"branches", v.size()}, {"median", median}, {"p90", p90}};
+    if (last > 0.0) row["median_growth"] = median / last;
+    last = median;
+    out.push_back(row);
+  }
+  return out;
+}
+
 struct GradcheckOptions {
   std::vector<std::string> fields{"inflate", "wave1", "wave3"};
   std::vector<double> steps{1e-3, 3e-4, 1e-4, 3e-5};
@@ -421,6 +546,7 @@ struct GradcheckOptions {
   double min_agreeing = 0.8;    // and reverse and forward mode agree within reverse_tolerance · Σ|AD_i|
   double reverse_tolerance = 1e-3;
   std::string inject;       // "flat-normals": differentiate a renderer with flat facets (the check must catch it)
+  int explain = 0;          // the largest rays whose branches are compared one by one (explain_ray)
 };
 
 io::Json gradcheck(Setup& setup, const GradcheckOptions& o, bool& passed) {
@@ -579,9 +705,13 @@ io::Json gradcheck(Setup& setup, const GradcheckOptions& o, bool& passed) {
                                  {"fd", fd[j]},
                                  {"segments", fwd[j].stats.segments},
                                  {"hits", fwd[j].stats.hits},
-                                 {"tir", fwd[j].stats.tir}});
+                                 {"tir", fwd[j].stats.tir},
+                                 {"min_cos2_t", fwd[j].stats.min_cos2_t}});
+              if (r < std::size_t(o.explain))
+                largest.back()["branches"] = explain_ray(setup, rays[j], ta, x0, xp, xm, df, h);
             }
             sj["largest_rays"] = largest;
+            sj["direction_derivative_by_depth"] = direction_growth(s, rays, 1024, ta, df);
           }
           sj["ad_reverse_float"] = dot(g_float, d);
           sj["ad_reverse_clipped"] = dot(g_clipped, d);
@@ -1192,6 +1322,10 @@ int main(int argc, char** argv) {
   g->add_option("--min-agreeing", gc.min_agreeing, "With --check: the fraction of rays (path counts unchanged at every "
                 "step) that must agree at some step")->capture_default_str();
   g->add_flag("--check", gc.check, "Exit status 1 when too few rays agree or reverse and forward mode differ");
+  g->add_option("--explain", gc.explain,
+                "Of the largest rays, the first N are compared branch by branch (origin, direction, weight, light: "
+                "forward mode against central differences of the same branch)")
+      ->capture_default_str()->check(CLI::Range(0, 8));
   g->add_option("--inject", gc.inject, "Differentiate a deliberately different renderer (flat-normals): the check must fail");
 
   CLI::App* h = app.add_subcommand("home", "Does −∇L point to the true surface? Cosines, noise, loss along Δ");

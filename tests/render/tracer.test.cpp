@@ -307,6 +307,31 @@ TEST_CASE("a glass sphere's central ray") {
   }
 }
 
+TEST_CASE("TraceStats::min_cos2_t: the refraction closest to the critical angle") {
+  // an off-axis ray through a glass sphere, impact parameter b (sin θi = b / r):
+  // entering, cos²θt = 1 − (b / r η)²; leaving, 1 − (b / r)², the smaller
+  const double eta = 1.5, radius = 0.5, b = 0.3;
+  HostScene s = make_scene(make_icosphere(float(radius), 5), float(eta));
+  two_sided_environment(s, Vec3f(1.0f), Vec3f(0.5f));
+  TraceSettings ts;
+  const TestRay ray{Vec3f(float(b), 0.0f, 3.0f), Vec3f(0, 0, -1)};
+  const double s2 = (b / radius) * (b / radius);
+  ts.max_depth = 1;  // the entry only
+  TraceStats entry;
+  trace_value<double>(s, ray, ts, &entry);
+  CHECK(entry.min_cos2_t == doctest::Approx(1.0 - s2 / (eta * eta)).epsilon(5e-3));
+  ts.max_depth = 2;  // and the exit
+  TraceStats both;
+  trace_value<double>(s, ray, ts, &both);
+  CHECK(both.min_cos2_t == doctest::Approx(1.0 - s2).epsilon(5e-3));
+  // a miss refracts nowhere; add() keeps the least of two rays
+  TraceStats miss;
+  trace_value<double>(s, {Vec3f(2.0f, 0.0f, 3.0f), Vec3f(0, 0, -1)}, ts, &miss);
+  CHECK(miss.min_cos2_t == 1.0f);
+  miss.add(both);
+  CHECK(miss.min_cos2_t == both.min_cos2_t);
+}
+
 TEST_CASE("white furnace: clear glass renders the environment, absorbing glass less") {
   for (const Shape& shape : {make_icosphere(0.5f, 3), make_box(0.3f, 0.4f, 0.25f)}) {
     HostScene s = make_scene(shape, 1.5f);

@@ -13,6 +13,7 @@ struct InterfaceEvent {
   Vec3<S> wr;  // reflected direction
   Vec3<S> wt;  // refracted direction; zero on TIR
   S R, T;      // Fresnel weights, R + T = 1
+  S cos_theta_t;  // cosine of wt against n (signed opposite to dot(wi, n)); 0 on TIR
   S eta_it;    // relative IoR crossed by the refracted ray
   bool tir;
 };
@@ -27,6 +28,7 @@ DT_HOST_DEVICE InterfaceEvent<S> interface_event(const Vec3<S>& wi, const Vec3<S
   e.wr = reflect(wi, n, cos_i);
   e.R = f.R;
   e.T = S(1) - f.R;
+  e.cos_theta_t = f.cos_theta_t;
   e.eta_it = f.eta_it;
   e.tir = f.tir;
   e.wt = f.tir ? Vec3<S>(S(0), S(0), S(0)) : refract(wi, n, cos_i, f);

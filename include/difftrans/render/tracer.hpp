@@ -80,8 +80,10 @@ struct TraceStats {
   std::int32_t pruned = 0;        // branches dropped by the throughput threshold
   std::int32_t fallback_hits = 0; // hits whose triangle could not be re-evaluated in S (BVH values used)
   double cut_weight = 0;          // mean RGB weight of the dropped branches: the radiance lost, per unit radiance
+  float min_cos2_t = 1.0f;        // the smallest cos²θt of a refraction (how close to the critical angle); add() keeps the least
   DT_HOST_DEVICE void add(const TraceStats& o) {
     cut_weight += o.cut_weight;
+    min_cos2_t = o.min_cos2_t < min_cos2_t ? o.min_cos2_t : min_cos2_t;
     segments += o.segments;
     hits += o.hits;
     tir += o.tir;
@@ -288,6 +290,10 @@ DT_HOST_DEVICE Vec3<S> follow(const SceneView& scene, const Accel& accel, Reader
     }
     const optics::InterfaceEvent<S> ev = optics::interface_event(wi, n, eta);
     const float incoming_side = cos_geo > T(0) ? 1.0f : -1.0f;
+    if (!ev.tir) {
+      const float c2 = float(value_of(ev.cos_theta_t) * value_of(ev.cos_theta_t));
+      local.min_cos2_t = c2 < local.min_cos2_t ? c2 : local.min_cos2_t;
+    }
 
     // the children; a zero Fresnel weight (R at eta = 1) spawns nothing
     const bool refracts = !ev.tir && value_of(ev.T) > T(0);
