@@ -94,7 +94,9 @@ struct Stage2Weights {
     v(Field{"smoothness", "--materials-absorption-tv", "weight of the absorption grid's total variation", 0, 1e6},
       w.smoothness);
     v(Field{"volume", "--materials-absorption-l2", "weight of the absorption grid's L2 (mean σ²)", 0, 1e6}, w.volume);
-    v(Field{"mask", "", "mask L1 of the mesh"}, w.mask);
+    v(Field{"mask", "--materials-mask", "weight of the mask L1 of the moving vertices (with --materials-geometry)", 0,
+            1e6},
+      w.mask);
     v(Field{"edge_normal", "", "edge-normal term with the mask term"}, w.edge_normal);
   }
 };
@@ -388,7 +390,9 @@ struct Stage2Config {
       c.geometry_blur);
     v(Field{"blur_halving", "--materials-blur-halving", "iterations per halving of the environment blur", 1, big},
       c.blur_halving);
-    v(Field{"mask_every", "", "iterations between mask steps on the vertices"}, c.mask_every);
+    v(Field{"mask_every", "--materials-mask-every", "iterations between mask steps on the moving vertices (0: none)", 0,
+            1e9},
+      c.mask_every);
     v(Field{"mask_views", "", "views per mask step"}, c.mask_views);
     v(Field{"lr_ior_frozen", "", "IoR learning rate in the warm-up"}, c.lr_ior_frozen);
     v(Field{"lr_ior", "--materials-lr-ior", "IoR learning rate after the warm-up", 0, 10}, c.lr_ior);
