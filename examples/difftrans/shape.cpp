@@ -12,7 +12,8 @@ void add_shape(CLI::App& app) {
   auto name = std::make_shared<std::string>();
   auto out = std::make_shared<std::filesystem::path>();
   CLI::App* cmd = app.add_subcommand("shape", "Write a procedural mesh of known genus (.obj or .ply)");
-  cmd->footer("Shapes: holes-N, a slab pierced by N square holes in a row (genus N).\n"
+  cmd->footer("Shapes: holes-N, a slab pierced by N square holes in a row (genus N); sphere-L, an icosphere of\n"
+              "radius 1 subdivided L times (L = 0..9; 20 x 4^L triangles).\n"
               "Example: difftrans shape holes-5 --out holes5.obj && difftrans synth --mesh holes5.obj --ior 1.5 \\\n"
               "           --env constant:1,1,1 --variant quick --out scenes/holes5");
   cmd->add_option("name", *name, "shape name")->required();

@@ -1,9 +1,11 @@
 // Procedural shapes of known topology: the voxel boundary is closed,
 // consistently oriented and of the stated genus; its volume is the voxel count.
+// The icosphere: closed, outward, genus 0, on its sphere, volume → 4/3 π r³.
 #include "difftrans/geometry/procedural.hpp"
 
 #include <doctest/doctest.h>
 
+#include <cmath>
 #include <map>
 #include <utility>
 
@@ -78,9 +80,40 @@ TEST_CASE("voxel shapes: edge and corner contacts are reported as non-manifold")
   CHECK(dg::voxel_shape_is_manifold(v));
 }
 
+TEST_CASE("icosphere: closed, outward, genus 0, vertices on the sphere, volume of the ball") {
+  const double pi = 3.14159265358979323846;
+  double last_gap = 1.0;
+  for (int levels : {0, 1, 3, 5}) {
+    CAPTURE(levels);
+    const dg::ProceduralMesh m = dg::icosphere(0.5f, levels);
+    const int nv = int(m.positions.size() / 3), nf = int(m.triangles.size() / 3);
+    CHECK(nf == 20 * (1 << (2 * levels)));
+    CHECK(nv == 10 * (1 << (2 * levels)) + 2);
+    CHECK(closed_and_oriented(m));
+    const dg::MeshGenus g = dg::mesh_genus(m.triangles, nv);
+    CHECK(g.closed);
+    CHECK(g.genus == 0);
+    for (int i = 0; i < nv; ++i) {
+      const float* q = &m.positions[3 * std::size_t(i)];
+      CHECK(std::sqrt(double(q[0]) * q[0] + double(q[1]) * q[1] + double(q[2]) * q[2]) == doctest::Approx(0.5).epsilon(1e-6));
+    }
+    // inscribed: below the ball's volume, closer at every level (the gap falls about 4x per level)
+    const double gap = 1.0 - signed_volume(m) / (4.0 / 3.0 * pi * 0.125);
+    CHECK(gap > 0.0);
+    CHECK(gap < last_gap);
+    last_gap = gap;
+  }
+  CHECK(last_gap < 2e-3);
+  CHECK_THROWS_AS(dg::icosphere(1.0f, -1), std::invalid_argument);
+}
+
 TEST_CASE("procedural_shape by name") {
   const dg::ProceduralMesh m = dg::procedural_shape("holes-4");
   CHECK(dg::mesh_genus(m.triangles, std::int32_t(m.positions.size() / 3)).genus == 4);
+  const dg::ProceduralMesh sphere = dg::procedural_shape("sphere-2");
+  CHECK(sphere.triangles.size() == 3u * 320u);
+  CHECK_THROWS_WITH_AS(dg::procedural_shape("sphere-x"), doctest::Contains("'sphere-x'"), std::invalid_argument);
+  CHECK_THROWS_WITH_AS(dg::procedural_shape("sphere-10"), doctest::Contains("'sphere-10'"), std::invalid_argument);
   CHECK_THROWS_WITH_AS(dg::procedural_shape("holes-"), doctest::Contains("'holes-'"), std::invalid_argument);
   CHECK_THROWS_WITH_AS(dg::procedural_shape("donut"), doctest::Contains("'donut'"), std::invalid_argument);
 }

@@ -13,6 +13,8 @@
 #include <utility>
 #include <vector>
 
+#include "difftrans/geometry/procedural.hpp"
+
 namespace dt_test {
 
 struct Shape {
@@ -36,43 +38,11 @@ inline Shape make_box(float hx, float hy, float hz) {
   return s;
 }
 
-// Icosphere of the given radius: an icosahedron subdivided `levels` times.
+// Icosphere of the given radius: an icosahedron subdivided `levels` times
+// (the library's geometry::icosphere).
 inline Shape make_icosphere(float radius, int levels) {
-  const double t = (1.0 + std::sqrt(5.0)) / 2.0;
-  std::vector<double> p = {-1, t, 0, 1, t, 0, -1, -t, 0, 1, -t, 0, 0, -1, t, 0, 1, t,
-                           0, -1, -t, 0, 1, -t, t, 0, -1, t, 0, 1, -t, 0, -1, -t, 0, 1};
-  std::vector<std::int32_t> f = {0, 11, 5, 0, 5, 1, 0, 1, 7, 0, 7, 10, 0, 10, 11, 1, 5, 9, 5, 11, 4,
-                                 11, 10, 2, 10, 7, 6, 7, 1, 8, 3, 9, 4, 3, 4, 2, 3, 2, 6, 3, 6, 8,
-                                 3, 8, 9, 4, 9, 5, 2, 4, 11, 6, 2, 10, 8, 6, 7, 9, 8, 1};
-  const auto normalize = [&](std::size_t i) {
-    const double l = std::sqrt(p[3 * i] * p[3 * i] + p[3 * i + 1] * p[3 * i + 1] + p[3 * i + 2] * p[3 * i + 2]);
-    for (int k = 0; k < 3; ++k) p[3 * i + k] /= l;
-  };
-  for (std::size_t i = 0; i < p.size() / 3; ++i) normalize(i);
-  for (int l = 0; l < levels; ++l) {
-    std::map<std::pair<int, int>, int> mid;
-    const auto midpoint = [&](int a, int b) {
-      const auto key = std::minmax(a, b);
-      const auto it = mid.find(key);
-      if (it != mid.end()) return it->second;
-      for (int k = 0; k < 3; ++k) p.push_back(0.5 * (p[3 * a + k] + p[3 * b + k]));
-      const int id = int(p.size() / 3) - 1;
-      normalize(std::size_t(id));
-      mid[key] = id;
-      return id;
-    };
-    std::vector<std::int32_t> g;
-    for (std::size_t i = 0; i < f.size(); i += 3) {
-      const int a = f[i], b = f[i + 1], c = f[i + 2];
-      const int ab = midpoint(a, b), bc = midpoint(b, c), ca = midpoint(c, a);
-      for (int k : {a, ab, ca, b, bc, ab, c, ca, bc, ab, bc, ca}) g.push_back(k);
-    }
-    f.swap(g);
-  }
-  Shape s;
-  for (double x : p) s.positions.push_back(float(x * radius));
-  s.triangles = f;
-  return s;
+  difftrans::geometry::ProceduralMesh m = difftrans::geometry::icosphere(radius, levels);
+  return Shape{std::move(m.positions), std::move(m.triangles)};
 }
 
 // A torus about the z axis of n × m quads (two triangles each), major radius

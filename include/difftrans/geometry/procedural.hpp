@@ -1,10 +1,15 @@
 // Procedural closed meshes of known topology, for testing shape recovery:
-// the boundary of a set of voxels, and a block pierced by N holes (genus N).
+// the boundary of a set of voxels, a block pierced by N holes (genus N), and
+// an icosphere.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
+#include <map>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace difftrans::geometry {
@@ -120,16 +125,70 @@ inline VoxelShape block_with_holes(int holes, int hole = 2, int bar = 1, int thi
   return v;
 }
 
-// Shapes by name: "holes-N" (block_with_holes(N)). Throws std::invalid_argument naming the value.
-inline ProceduralMesh procedural_shape(const std::string& name) {
-  const std::string prefix = "holes-";
-  if (name.compare(0, prefix.size(), prefix) == 0) {
-    const std::string digits = name.substr(prefix.size());
-    bool ok = !digits.empty() && digits.size() <= 3;
-    for (char c : digits) ok = ok && c >= '0' && c <= '9';
-    if (ok) return voxel_boundary(block_with_holes(std::stoi(digits)));
+// A sphere of `radius`: an icosahedron whose faces are split in four
+// `levels` times, every new vertex pushed onto the sphere (20·4^levels
+// triangles, 10·4^levels + 2 vertices).
+inline ProceduralMesh icosphere(float radius, int levels) {
+  if (levels < 0 || levels > 9) throw std::invalid_argument("icosphere: levels 0..9 expected");
+  const double g = (1.0 + std::sqrt(5.0)) / 2.0;  // the golden ratio: the icosahedron's corners
+  std::vector<double> p = {-1, g, 0, 1, g, 0, -1, -g, 0, 1, -g, 0, 0, -1, g, 0, 1, g,
+                           0, -1, -g, 0, 1, -g, g, 0, -1, g, 0, 1, -g, 0, -1, -g, 0, 1};
+  std::vector<std::int32_t> f = {0, 11, 5, 0, 5, 1, 0, 1, 7, 0, 7, 10, 0, 10, 11, 1, 5, 9, 5, 11, 4,
+                                 11, 10, 2, 10, 7, 6, 7, 1, 8, 3, 9, 4, 3, 4, 2, 3, 2, 6, 3, 6, 8,
+                                 3, 8, 9, 4, 9, 5, 2, 4, 11, 6, 2, 10, 8, 6, 7, 9, 8, 1};
+  const auto onto_sphere = [&p](std::size_t i) {
+    const double l = std::sqrt(p[3 * i] * p[3 * i] + p[3 * i + 1] * p[3 * i + 1] + p[3 * i + 2] * p[3 * i + 2]);
+    for (int k = 0; k < 3; ++k) p[3 * i + k] /= l;
+  };
+  for (std::size_t i = 0; i < p.size() / 3; ++i) onto_sphere(i);
+  for (int level = 0; level < levels; ++level) {
+    std::map<std::pair<int, int>, int> middle;  // an edge's new vertex, shared by its two faces
+    const auto split = [&](int a, int b) {
+      const auto key = std::minmax(a, b);
+      const auto found = middle.find(key);
+      if (found != middle.end()) return found->second;
+      for (int k = 0; k < 3; ++k) p.push_back(0.5 * (p[3 * std::size_t(a) + std::size_t(k)] + p[3 * std::size_t(b) + std::size_t(k)]));
+      const int id = int(p.size() / 3) - 1;
+      onto_sphere(std::size_t(id));
+      middle[key] = id;
+      return id;
+    };
+    std::vector<std::int32_t> finer;
+    finer.reserve(4 * f.size());
+    for (std::size_t i = 0; i < f.size(); i += 3) {
+      const int a = f[i], b = f[i + 1], c = f[i + 2];
+      const int ab = split(a, b), bc = split(b, c), ca = split(c, a);
+      for (int k : {a, ab, ca, b, bc, ab, c, ca, bc, ab, bc, ca}) finer.push_back(k);
+    }
+    f.swap(finer);
   }
-  throw std::invalid_argument("procedural shape '" + name + "' is not known (known: holes-N, N = 0..999)");
+  ProceduralMesh m;
+  m.positions.reserve(p.size());
+  for (double x : p) m.positions.push_back(float(x * radius));
+  m.triangles = std::move(f);
+  return m;
+}
+
+namespace detail {
+// The non-negative integer after `prefix` in `name` (at most `digits` digits), or -1.
+inline int shape_number(const std::string& name, const std::string& prefix, std::size_t digits) {
+  if (name.compare(0, prefix.size(), prefix) != 0) return -1;
+  const std::string rest = name.substr(prefix.size());
+  if (rest.empty() || rest.size() > digits) return -1;
+  for (char c : rest)
+    if (c < '0' || c > '9') return -1;
+  return std::stoi(rest);
+}
+}  // namespace detail
+
+// Shapes by name: "holes-N" (block_with_holes(N)), "sphere-L" (icosphere of
+// radius 1, L = 0..9 levels). Throws std::invalid_argument naming the value.
+inline ProceduralMesh procedural_shape(const std::string& name) {
+  const int holes = detail::shape_number(name, "holes-", 3);
+  if (holes >= 0) return voxel_boundary(block_with_holes(holes));
+  const int levels = detail::shape_number(name, "sphere-", 1);
+  if (levels >= 0) return icosphere(1.0f, levels);
+  throw std::invalid_argument("procedural shape '" + name + "' is not known (known: holes-N, N = 0..999; sphere-L, L = 0..9)");
 }
 
 }  // namespace difftrans::geometry
