@@ -1088,6 +1088,32 @@ io::Json ior_scan(Setup& setup, const IorOptions& o) {
       rms += ad_ray[i] * ad_ray[i];
     }
     rms = std::sqrt(rms / double(std::max<std::size_t>(1, r.size())));
+    // the heavy tail: do the rays of largest IoR derivative refract near the
+    // critical angle (TraceStats::min_cos2_t small), more than the others?
+    {
+      std::vector<std::size_t> order(r.size());
+      std::iota(order.begin(), order.end(), std::size_t(0));
+      std::sort(order.begin(), order.end(),
+                [&](std::size_t a, std::size_t b) { return std::abs(ad_ray[a]) > std::abs(ad_ray[b]); });
+      const std::size_t top = std::min(r.size(), std::max<std::size_t>(8, r.size() / 100));
+      const auto describe = [&](std::size_t from, std::size_t to) {
+        std::vector<float> c2;
+        double share = 0.0, total = 0.0;
+        std::int64_t near = 0;
+        for (std::size_t k = from; k < to; ++k) {
+          c2.push_back(at[order[k]].stats.min_cos2_t);
+          near += at[order[k]].stats.min_cos2_t < 0.01f;
+          share += std::abs(ad_ray[order[k]]);
+        }
+        for (double a : ad_ray) total += std::abs(a);
+        std::sort(c2.begin(), c2.end());
+        return io::Json{{"rays", to - from},
+                        {"median_min_cos2_t", c2.empty() ? 1.0f : c2[c2.size() / 2]},
+                        {"fraction_below_0.01", c2.empty() ? 0.0 : double(near) / double(c2.size())},
+                        {"share_of_sum_abs", total > 0.0 ? share / total : 0.0}};
+      };
+      out["critical_angle"] = {{"largest_1pct", describe(0, top)}, {"others", describe(top, r.size())}};
+    }
     io::Json checks = io::Json::array();
     for (const double h : o.check_steps) {
       s.ior = float(double(ior0) + h);
