@@ -37,8 +37,9 @@ for s in $scenes; do
   fi
 done
 # Error maps (vertex colours by distance to the true surface; open them in a
-# mesh viewer): OUT/error_stage1.ply and, when the vertices moved,
-# OUT/error_stage2.ply; the fraction of vertices beyond tau goes in the table.
+# mesh viewer, or look at the pictures beside them): OUT/error_stage1.ply and
+# .png and, when the vertices moved, OUT/error_stage2.ply and .png; the
+# fraction of vertices beyond tau goes in the table.
 beyond() {  # beyond MESH SCENE PLY: the fraction of MESH's vertices farther than tau from the truth, in %
   "$bin" evaluate --pred "$1" --gt "$2/gt/mesh.obj" --error-map "$3" 2>/dev/null |
     jq -r '.error_map.fraction_above_tau * 1000 | round / 10'

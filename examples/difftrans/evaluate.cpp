@@ -14,6 +14,7 @@
 #include "difftrans/io/mesh_file.hpp"
 #include "difftrans/io/ply.hpp"
 #include "difftrans/metrics/metrics.hpp"
+#include "difftrans/render/mesh_picture.hpp"
 
 namespace difftrans::cli {
 namespace {
@@ -63,6 +64,30 @@ void write_error_map(const EvaluateOptions& o, const io::Mesh& pred, const io::M
   std::vector<std::array<std::uint8_t, 3>> colours(d.size());
   for (std::size_t v = 0; v < d.size(); ++v) colours[v] = io::heat_color(float(d[v] / scale));
   io::write_ply(o.error_map, pred, false, nullptr, &colours);
+  // the same colours as a picture: the mesh from the front, the right, the
+  // back, the left (first row), above and below, and the scale (a bar from 0
+  // at the bottom to `scale` and beyond at the top)
+  std::vector<float> positions;
+  std::vector<std::int32_t> triangles;
+  for (const Vec3f& q : pred.positions) positions.insert(positions.end(), {q.x, q.y, q.z});
+  for (const Vec3i& t : pred.triangles) triangles.insert(triangles.end(), {t.x, t.y, t.z});
+  const int size = 200;
+  std::vector<std::vector<io::Image8>> rows(2);
+  for (const scene::Camera& cam : render::cameras_around(positions, size))
+    rows[rows[0].size() < 4 ? 0 : 1].push_back(render::vertex_colour_picture(positions, triangles, colours, cam));
+  io::Image8 bar{size, size, 3, std::vector<std::uint8_t>(std::size_t(size) * size * 3, 40)};
+  for (int y = 8; y < size - 8; ++y)
+    for (int x = size / 2 - 12; x < size / 2 + 12; ++x) {
+      const auto c = io::heat_color(float(size - 8 - y) / float(size - 16));
+      std::copy(c.begin(), c.end(), &bar.data[3 * (std::size_t(y) * size + std::size_t(x))]);
+    }
+  rows[1].push_back(bar);
+  io::SheetLayout layout;
+  layout.tile_width = layout.tile_height = size;
+  layout.rows = 2;
+  layout.cols = 4;
+  const fs::path picture = fs::path(o.error_map).replace_extension(".png");
+  io::write_png8(picture, io::compose_sheet(layout, rows));
   std::vector<double> sorted = d;
   std::sort(sorted.begin(), sorted.end());
   const auto quantile = [&](double q) {
@@ -72,6 +97,7 @@ void write_error_map(const EvaluateOptions& o, const io::Mesh& pred, const io::M
   for (double x : d) sum += x, above += x > o.tau;
   const double n = double(std::max<std::size_t>(1, d.size()));
   result["error_map"] = {{"file", o.error_map},
+                         {"picture", picture.string()},
                          {"scale", scale},
                          {"vertices", d.size()},
                          {"mean", sum / n},
@@ -214,7 +240,8 @@ void add_evaluate(CLI::App& app) {
       "  ground truth and masks from the scene's transforms_test.json (or _train), paired by frame name.\n"
       "Infinite values (identical images) are written as null.\n"
       "Error map: difftrans evaluate --pred MESH --gt MESH --error-map ERR.ply\n"
-      "  where the prediction is wrong, as vertex colours; the distances' quantiles in the JSON (error_map).");
+      "  where the prediction is wrong, as vertex colours (and ERR.png, a picture of them); the distances' quantiles\n"
+      "  in the JSON (error_map).");
   cmd->add_option("--pred", o->pred, "predicted mesh (.obj or .ply)");
   cmd->add_option("--gt", o->gt, "ground-truth mesh (.obj or .ply)");
   cmd->add_option("--samples", o->samples, "points sampled per mesh")->capture_default_str()->check(CLI::PositiveNumber);
@@ -230,7 +257,8 @@ void add_evaluate(CLI::App& app) {
   cmd->add_option("--out", o->out, "also write the JSON to this file");
   cmd->add_option("--error-map", o->error_map,
                   "with --pred/--gt: write the predicted mesh as PLY, each vertex coloured by its distance to the true "
-                  "surface (black at 0, through purple and red, to pale yellow at --error-scale)");
+                  "surface (black at 0, through purple and red, to pale yellow at --error-scale), and beside it "
+                  "ERR.png: the same colours seen from six sides, and the scale");
   cmd->add_option("--error-scale", o->error_scale, "distance drawn pale yellow in --error-map (default: --tau)")
       ->check(CLI::PositiveNumber);
   cmd->callback([o] { run(*o); });
