@@ -4,7 +4,8 @@
 # Arguments: -DCOMMAND=path/to/difftrans -DSCENE=scene directory -DWORK_DIR=folder
 set(options --stages environment,geometry,materials --grid 16 --iterations 20 --refine-iterations 10
             --materials-iterations 12 --materials-freeze 4 --materials-rays 512 --materials-geometry --restart)
-set(outputs mesh_stage1_raw.obj mesh_stage1.obj mesh_stage2.obj material_stage2.json absorption_stage2.json envmap.hdr)
+set(outputs mesh_stage1_raw.obj mesh_stage1.obj mesh_stage2.obj material_stage2.json absorption_stage2.json envmap.hdr
+            geometry_stage2.png)
 foreach(run IN ITEMS 1 3)
   execute_process(COMMAND ${CMAKE_COMMAND} -E env DIFFTRANS_THREADS=${run}
                           ${COMMAND} reconstruct ${SCENE} --out ${WORK_DIR}/threads${run} ${options} --seed 5

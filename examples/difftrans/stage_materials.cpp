@@ -16,11 +16,15 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <exception>
+#include <filesystem>
 #include <string>
 #include <system_error>
+#include <vector>
 #include <sys/resource.h>
 
+#include "difftrans/io/contact_sheet.hpp"
 #include "difftrans/io/hdr.hpp"
 #include "difftrans/io/material.hpp"
 #include "difftrans/io/mesh_file.hpp"
@@ -29,6 +33,7 @@
 #include "difftrans/metrics/chamfer.hpp"
 #include "difftrans/metrics/ior.hpp"
 #include "difftrans/metrics/mesh_quality.hpp"
+#include "difftrans/render/mesh_picture.hpp"
 #include "config_options.hpp"
 #include "pipeline/environment.hpp"
 #include "pipeline/materials.hpp"
@@ -38,6 +43,43 @@ namespace difftrans::cli {
 // Lattice points per axis over the true mesh's box for the absorption error
 // (docs/metrics.md): about 48³ · (the object's share of its box) points.
 constexpr int absorption_error_lattice = 48;
+
+// The surface before and after the vertices moved, against the truth, as one
+// picture: rows stage 1 and stage 2 (each vertex coloured by its distance to
+// the true surface, io::heat_color: black at 0, pale yellow at tau and
+// beyond) and the truth (grey); columns the six views of
+// render::cameras_around the truth.
+void write_geometry_picture(const std::filesystem::path& path, const io::Mesh& before, const io::Mesh& after,
+                            const io::Mesh& truth) {
+  const metrics::GeometryOptions options;
+  const auto flat = [](const io::Mesh& m, std::vector<float>& positions, std::vector<std::int32_t>& triangles) {
+    for (const Vec3f& q : m.positions) positions.insert(positions.end(), {q.x, q.y, q.z});
+    for (const Vec3i& t : m.triangles) triangles.insert(triangles.end(), {t.x, t.y, t.z});
+  };
+  std::vector<float> truth_positions;
+  std::vector<std::int32_t> truth_triangles;
+  flat(truth, truth_positions, truth_triangles);
+  const int size = 160;
+  const std::vector<scene::Camera> cams = render::cameras_around(truth_positions, size);
+  std::vector<std::vector<io::Image8>> rows;
+  for (const io::Mesh* m : {&before, &after, &truth}) {
+    std::vector<float> positions;
+    std::vector<std::int32_t> triangles;
+    flat(*m, positions, triangles);
+    std::vector<render::VertexColour> colours(m->positions.size(), render::VertexColour{170, 170, 170});
+    if (m != &truth) {
+      const std::vector<double> d = metrics::vertex_distances(*m, truth, options);
+      for (std::size_t v = 0; v < d.size(); ++v) colours[v] = io::heat_color(float(d[v] / options.tau));
+    }
+    rows.emplace_back();
+    for (const scene::Camera& cam : cams) rows.back().push_back(render::vertex_colour_picture(positions, triangles, colours, cam));
+  }
+  io::SheetLayout layout;
+  layout.tile_width = layout.tile_height = size;
+  layout.rows = int(rows.size());
+  layout.cols = int(cams.size());
+  io::write_png8(path, io::compose_sheet(layout, rows));
+}
 
 io::Json mesh_quality_json(const metrics::MeshQuality& q) {
   return {{"mean_dihedral_degrees", q.mean_dihedral_degrees},
@@ -323,6 +365,11 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
       const auto g = metrics::evaluate_geometry(to_io_mesh(s.mesh.positions, s.mesh.triangles), gt_mesh);
       j["chamfer"] = g.chamfer;
       j["f1"] = g.f1;
+      if (cfg.optimize_positions) {
+        write_geometry_picture(out / "geometry_stage2.png", mesh, to_io_mesh(s.mesh.positions, s.mesh.triangles),
+                               gt_mesh);
+        j["geometry_picture"] = folder.shown(out / "geometry_stage2.png").string();
+      }
       if (!scene.gt.material.empty() && fs::exists(scene.gt.material)) {
         // the fitted grid against the true absorption inside the true object
         const io::Material gt = io::read_material(scene.gt.material);
