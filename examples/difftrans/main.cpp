@@ -16,7 +16,8 @@
   X(info)                     \
   X(shape)                    \
   X(export)                   \
-  X(degrade)
+  X(degrade)                  \
+  X(report)
 
 namespace difftrans::cli {
 #define DIFFTRANS_DECLARE(name) void add_##name(CLI::App& app);

@@ -59,7 +59,8 @@ void run(const RenderOptions& o) {
     pass.trace.prune_throughput = o.roulette;
     pass.trace.roulette = true;
   }
-  const auto rendered = render_views(s, views, pass, out.path(), true, "render");
+  RenderTotals totals;
+  const auto rendered = render_views(s, views, pass, out.path(), true, "render", nullptr, &totals);
   io::write_transforms(out.path() / "transforms.json", split_of(rendered));
   io::Json result = io::Json::object();
   if (with_truth) {
@@ -68,6 +69,7 @@ void run(const RenderOptions& o) {
   }
   result["environment"] = env.description();
   result["views"] = rendered.size();
+  result["trace"] = totals.json(rendered.size());
   result["out"] = out.final_path().string();
   io::write_json(out.path() / "render.json", result);
   out.commit();

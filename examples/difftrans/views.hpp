@@ -6,11 +6,14 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
 #include <optional>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include "command.hpp"
 #include "difftrans/io/contact_sheet.hpp"
@@ -255,6 +258,17 @@ class Progress {
   clock::time_point start_;
 };
 
+// The work of render_views: camera rays, ray segments traced, and the seconds
+// spent tracing (image writing and masks left out).
+struct RenderTotals {
+  std::int64_t rays = 0, segments = 0;
+  double trace_seconds = 0.0;
+  io::Json json(std::size_t views) const {
+    return {{"camera_rays", rays}, {"segments", segments}, {"seconds", trace_seconds},
+            {"seconds_per_view", views ? trace_seconds / double(views) : 0.0}};
+  }
+};
+
 // What was rendered for one view.
 struct Rendered {
   View view;
@@ -265,9 +279,11 @@ struct Rendered {
 // Renders every view; writes DIR/images/NAME.exr, DIR/previews/NAME.png and
 // (write_masks) DIR/masks/NAME.png, filling each view's frame paths.
 // A room (synth --room), when given, is what rays leaving the object see.
+// `totals`, when given, receives the work done.
 inline std::vector<Rendered> render_views(const render::HostScene& s, std::vector<View> views,
                                           const render::PassOptions& options, const fs::path& dir, bool write_masks,
-                                          const std::string& label, const scene::Room* room = nullptr) {
+                                          const std::string& label, const scene::Room* room = nullptr,
+                                          RenderTotals* totals = nullptr) {
   fs::create_directories(dir / "images");
   fs::create_directories(dir / "previews");
   if (write_masks) fs::create_directories(dir / "masks");
@@ -275,12 +291,15 @@ inline std::vector<Rendered> render_views(const render::HostScene& s, std::vecto
   std::vector<Rendered> out;
   out.reserve(views.size());
   std::int64_t rays = 0, segments = 0;
+  double trace_seconds = 0.0;
   for (std::size_t i = 0; i < views.size(); ++i) {
     Rendered r;
     r.view = std::move(views[i]);
     render::PassStats st;
+    const auto t0 = std::chrono::steady_clock::now();
     r.image = room ? render::render_view_with(s, r.view.camera, options, render::fixed_escape(*room), &st)
                    : render::render_view(s, r.view.camera, options, &st);
+    trace_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     rays += st.rays;
     segments += st.trace.segments;
     r.mask = render::object_mask(s, r.view.camera);
@@ -299,6 +318,7 @@ inline std::vector<Rendered> render_views(const render::HostScene& s, std::vecto
     progress(label + ": " + std::to_string(rays) + " camera rays, " + std::to_string(segments) + " ray segments (" +
              std::to_string(double(segments) / double(rays)).substr(0, 5) + " per camera ray) in " +
              duration_text(bar.elapsed()));
+  if (totals) *totals = RenderTotals{rays, segments, trace_seconds};
   return out;
 }
 
