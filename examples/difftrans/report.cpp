@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
+#include <cstdlib>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
@@ -13,8 +15,10 @@
 #include <map>
 #include <memory>
 #include <set>
+#include <stdexcept>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "command.hpp"
@@ -23,6 +27,7 @@
 #include "report_page.hpp"
 #include "difftrans/io/image_file.hpp"
 #include "difftrans/io/png.hpp"
+#include "difftrans/render/hard_cases.hpp"
 
 #ifndef DIFFTRANS_BUILD_FLAGS
 #define DIFFTRANS_BUILD_FLAGS "unknown"
@@ -355,7 +360,7 @@ std::vector<Section> collect(const Suite& s, const Runner& runner, const fs::pat
     sec.tables.push_back(t);
     Table sweep{"ior_sweep", "One shape (a sphere) at several true IoRs", "", {"true IoR", "found", "error", "CD stage 1 (×1e-4)"}, {}};
     Plot plot{"ior_sweep_plot", "IoR found against true (sphere)", "true IoR", "found IoR", "", false, false, {}};
-    Series found{"found", colours[0], {}, false}, diagonal{"found = true", "#999", {}, true};
+    Series found{"found", colours[0], {}, false}, diagonal{"found = true", "#999", {}, true, false};
     for (const auto& ior : s.iors) {
       const std::string id = "ior/" + ior + "/run";
       const io::Json r = rd.reconstruction(id);
@@ -486,7 +491,7 @@ std::vector<Section> collect(const Suite& s, const Runner& runner, const fs::pat
         }
       plot.series.push_back(ser);
     }
-    Series front{"Pareto front", "#000", {}, true};
+    Series front{"Pareto front", "#000", {}, true, false};
     std::set<std::string> on_front;
     for (const auto& a : all) {
       if (!std::isfinite(a.sec) || !std::isfinite(a.err)) continue;
@@ -496,7 +501,7 @@ std::vector<Section> collect(const Suite& s, const Runner& runner, const fs::pat
           dominated = true;
       if (!dominated) front.points.push_back({a.sec, a.err, a.what, a.id, false}), on_front.insert(a.id);
     }
-    plot.series.push_back(front);
+    plot.series.insert(plot.series.begin(), front);
     for (const auto& r : s.roulettes)
       for (int d : s.depths)
         for (int n : s.spp_axes) {
@@ -521,12 +526,40 @@ std::vector<Section> collect(const Suite& s, const Runner& runner, const fs::pat
                             at(rd.reconstruction(id), "/geometry/final/chamfer") * 1e4, it + " iterations", id, id == "study/default"});
     }
     rec.series = {pts};
-    rec.note = "Wall time of the whole run (environment, stage 1, stage 2); the points differ only in stage 1's iteration counts.";
+    rec.note = "Wall time of the whole run (environment, stage 1, stage 2); the points differ only in stage 1's iteration counts. "
+               "Ringed: the study's own counts.";
     sec.plots.push_back(rec);
     sections.push_back(sec);
   }
 
-  // 7. cost (numbered as in the list; 6, numerical stability, is not in the report yet)
+  // 6. numerical stability: the hard cases the tests assert on, counted here
+  {
+    Section sec{"stability", "6. Numerical stability", "", {}, {}, {}};
+    sec.intro = "The hard cases of <code>render/hard_cases.hpp</code> (the list <code>tests/render/tracer.test.cpp</code> "
+                "asserts to be clean), traced here by the same code: radiance in float and in double, and the reverse-mode "
+                "gradient (double) with respect to every parameter of the scene (vertices, IoR, absorption, environment "
+                "texels). Counted in this process, not by a run.";
+    Table t{"stability", "Values and gradients that are not finite", "", {"case", "depth", "rays", "values not finite", "values below 0",
+                                                                        "gradient entries not finite", "tape overflows"}, {}};
+    for (int depth : {8, 16}) {
+      render::TraceSettings ts;
+      ts.max_depth = depth;
+      for (const auto& c : render::hard_cases()) {
+        const render::HardCaseResult r = render::check_hard_case(c, ts);
+        const auto of = [](std::int64_t bad, std::int64_t all) {
+          return Cell{std::to_string(bad) + " / " + std::to_string(all), double(bad), ""};
+        };
+        t.rows.push_back({label(c.name), label(std::to_string(depth)), label(std::to_string(r.rays)), of(r.nonfinite_values, r.values),
+                          of(r.negative_values, r.values), of(r.nonfinite_gradients, r.gradients),
+                          {std::to_string(r.tape_overflows), double(r.tape_overflows), ""}});
+      }
+    }
+    t.note = "Depth 8 is the test's; 16 the render command's default.";
+    sec.tables.push_back(t);
+    sections.push_back(sec);
+  }
+
+  // 7. cost
   {
     Section sec{"cost", "7. Cost", "", {}, {}, {}};
     sec.intro = "Wall time, CPU time and peak memory per reconstruction, and its stages' own timings from reconstruct.json.";

@@ -9,6 +9,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -64,6 +65,7 @@ struct Series {
   std::string name, colour;
   std::vector<Point> points;
   bool joined = false;
+  bool dots = true;  // false: the line alone (a front drawn under the points it joins)
 };
 struct Plot {
   std::string id, title, x_label, y_label, note;
@@ -108,6 +110,14 @@ inline std::string csv_field(const std::string& s) {
   return q + "\"";
 }
 
+// Whether a cell's text is one number (then its CSV field is the full-precision value).
+inline bool plain_number(const std::string& text) {
+  if (text.empty()) return false;
+  char* end = nullptr;
+  std::strtod(text.c_str(), &end);
+  return end == text.c_str() + text.size();
+}
+
 // The SVG of a plot, sized by its viewBox so that it shrinks with the page.
 inline std::string plot_svg(const Plot& p) {
   const double W = 640, H = 400, L = 70, R = 16, T = 16, B = 50;
@@ -125,13 +135,20 @@ inline std::string plot_svg(const Plot& p) {
       }
   if (!(x1 >= x0)) x0 = 0, x1 = 1;
   if (!(y1 >= y0)) y0 = 0, y1 = 1;
-  const auto widen = [](double& a, double& b, bool log) {
+  // linear axes: a round step (1, 2 or 5 times a power of ten), about 5 per axis
+  const auto nice_step = [](double a, double b) {
+    const double raw = (b - a) / 5.0, p10 = std::pow(10.0, std::floor(std::log10(raw)));
+    return raw / p10 < 1.5 ? p10 : raw / p10 < 3.5 ? 2 * p10 : raw / p10 < 7.5 ? 5 * p10 : 10 * p10;
+  };
+  const auto widen = [&](double& a, double& b, bool log) {
     if (log) {
       a = std::floor(a - 1e-9), b = std::ceil(b + 1e-9);
       if (b - a < 1) b = a + 1;
     } else {
       const double pad = b > a ? 0.06 * (b - a) : std::max(0.5, 0.1 * std::abs(a));
       a -= pad, b += pad;
+      const double step = nice_step(a, b);
+      a = std::floor(a / step) * step, b = std::ceil(b / step) * step;
     }
   };
   widen(x0, x1, p.log_x);
@@ -141,16 +158,27 @@ inline std::string plot_svg(const Plot& p) {
   std::string s = "<svg viewBox=\"0 0 640 400\" role=\"img\" aria-label=\"" + html_escape(p.title) +
                   "\" xmlns=\"http://www.w3.org/2000/svg\" font-size=\"12\" font-family=\"sans-serif\">\n"
                   "<rect width=\"640\" height=\"400\" fill=\"white\"/>\n";
-  const auto tick_text = [](double v, bool log) {
-    if (log) return "1e" + std::to_string(int(std::lround(v)));
-    return number_text(v, std::abs(v) < 10 ? 3 : 1);
+  // ticks in axis units (log10 of the value on a log axis); a log axis of at
+  // most two decades also gets 2 and 5 times each power of ten
+  const auto tick_text = [&](double v, bool log, double a, double b) {
+    if (log) {
+      const double value = std::pow(10.0, v);
+      return std::abs(v - std::round(v)) < 1e-9 ? "1e" + std::to_string(int(std::lround(v))) : number_text(value, std::max(0, int(-std::floor(v))));
+    }
+    const double step = nice_step(a, b);
+    const int digits = std::max(0, int(-std::floor(std::log10(step) + 1e-9)));
+    return number_text(std::abs(v) < 1e-12 * step ? 0.0 : v, digits);
   };
   const auto ticks = [&](double a, double b, bool log) {
     std::vector<double> t;
     if (log) {
-      for (double v = a; v <= b + 1e-9; v += 1) t.push_back(v);
+      for (double v = a; v <= b + 1e-9; v += 1) {
+        t.push_back(v);
+        if (b - a <= 2 && v + 1 <= b + 1e-9) t.push_back(v + std::log10(2.0)), t.push_back(v + std::log10(5.0));
+      }
     } else {
-      for (int i = 0; i <= 5; ++i) t.push_back(a + (b - a) * i / 5.0);
+      const double step = nice_step(a, b);
+      for (double v = a; v <= b + 1e-9 * step; v += step) t.push_back(v);
     }
     return t;
   };
@@ -158,13 +186,13 @@ inline std::string plot_svg(const Plot& p) {
     const double y = T + (H - T - B) * (1 - (v - y0) / (y1 - y0));
     s += "<line x1=\"" + number_text(L, 1) + "\" x2=\"" + number_text(W - R, 1) + "\" y1=\"" + number_text(y, 1) +
          "\" y2=\"" + number_text(y, 1) + "\" stroke=\"#ddd\"/><text x=\"" + number_text(L - 4, 1) + "\" y=\"" +
-         number_text(y + 4, 1) + "\" text-anchor=\"end\">" + tick_text(v, p.log_y) + "</text>\n";
+         number_text(y + 4, 1) + "\" text-anchor=\"end\">" + tick_text(v, p.log_y, y0, y1) + "</text>\n";
   }
   for (double v : ticks(x0, x1, p.log_x)) {
     const double x = L + (W - L - R) * (v - x0) / (x1 - x0);
     s += "<line x1=\"" + number_text(x, 1) + "\" x2=\"" + number_text(x, 1) + "\" y1=\"" + number_text(T, 1) +
          "\" y2=\"" + number_text(H - B, 1) + "\" stroke=\"#eee\"/><text x=\"" + number_text(x, 1) + "\" y=\"" +
-         number_text(H - B + 16, 1) + "\" text-anchor=\"middle\">" + tick_text(v, p.log_x) + "</text>\n";
+         number_text(H - B + 16, 1) + "\" text-anchor=\"middle\">" + tick_text(v, p.log_x, x0, x1) + "</text>\n";
   }
   s += "<text x=\"" + number_text((L + W - R) / 2, 1) + "\" y=\"" + number_text(H - 8, 1) + "\" text-anchor=\"middle\">" +
        html_escape(p.x_label) + "</text>\n";
@@ -183,6 +211,7 @@ inline std::string plot_svg(const Plot& p) {
       s += "\"/>\n";
     }
     for (const Point* q : pts) {
+      if (!ser.dots) break;
       const std::string tip = html_escape(ser.name + ": " + q->label);
       std::string dot = "<circle cx=\"" + number_text(X(q->x), 1) + "\" cy=\"" + number_text(Y(q->y), 1) + "\" r=\"4\" fill=\"" +
                         ser.colour + "\"><title>" + tip + "</title></circle>";
@@ -191,8 +220,12 @@ inline std::string plot_svg(const Plot& p) {
                "\" r=\"8\" fill=\"none\" stroke=\"black\" stroke-width=\"1.5\"/>";
       s += q->job.empty() ? dot + "\n" : "<a href=\"#" + anchor(q->job) + "\">" + dot + "</a>\n";
     }
-    s += "<circle cx=\"" + number_text(W - R - 190, 1) + "\" cy=\"" + number_text(T + 10 + 16 * legend, 1) + "\" r=\"4\" fill=\"" +
-         ser.colour + "\"/><text x=\"" + number_text(W - R - 180, 1) + "\" y=\"" + number_text(T + 14 + 16 * legend, 1) + "\">" +
+    s += (ser.dots ? "<circle cx=\"" + number_text(W - R - 190, 1) + "\" cy=\"" + number_text(T + 10 + 16 * legend, 1) +
+                         "\" r=\"4\" fill=\"" + ser.colour + "\"/>"
+                   : "<line x1=\"" + number_text(W - R - 196, 1) + "\" x2=\"" + number_text(W - R - 184, 1) + "\" y1=\"" +
+                         number_text(T + 10 + 16 * legend, 1) + "\" y2=\"" + number_text(T + 10 + 16 * legend, 1) + "\" stroke=\"" +
+                         ser.colour + "\" stroke-width=\"1.5\"/>") +
+         "<text x=\"" + number_text(W - R - 180, 1) + "\" y=\"" + number_text(T + 14 + 16 * legend, 1) + "\">" +
          html_escape(ser.name) + "</text>\n";
     ++legend;
   }
@@ -227,7 +260,7 @@ inline void write_page(const fs::path& out, const std::vector<Section>& sections
           if (cell.value) jc["value"] = *cell.value;
           if (!cell.job.empty()) jc["run"] = cell.job;
           jrow.push_back(jc);
-          csv << (c ? "," : "") << csv_field(cell.value && std::isfinite(*cell.value) ? sci_text(*cell.value, 6) : cell.text);
+          csv << (c ? "," : "") << csv_field(plain_number(cell.text) && cell.value && std::isfinite(*cell.value) ? sci_text(*cell.value, 6) : cell.text);
         }
         csv << "\n";
         rows.push_back(jrow);

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "difftrans/geometry/procedural.hpp"
+#include "difftrans/render/hard_cases.hpp"
 
 namespace dt_test {
 
@@ -22,20 +23,11 @@ struct Shape {
   std::vector<std::int32_t> triangles;
 };
 
-// Axis-aligned box centred at the origin with half extents (hx, hy, hz).
+// Axis-aligned box centred at the origin with half extents (hx, hy, hz)
+// (the library's geometry::box).
 inline Shape make_box(float hx, float hy, float hz) {
-  Shape s;
-  for (int i = 0; i < 8; ++i) {
-    s.positions.push_back(i & 1 ? hx : -hx);
-    s.positions.push_back(i & 2 ? hy : -hy);
-    s.positions.push_back(i & 4 ? hz : -hz);
-  }
-  // each face as a quad of corner ids, counter-clockwise seen from outside
-  const int quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
-  for (const auto& q : quads) {
-    for (int k : {q[0], q[1], q[2], q[0], q[2], q[3]}) s.triangles.push_back(k);
-  }
-  return s;
+  difftrans::geometry::ProceduralMesh m = difftrans::geometry::box(hx, hy, hz);
+  return Shape{std::move(m.positions), std::move(m.triangles)};
 }
 
 // Icosphere of the given radius: an icosahedron subdivided `levels` times
@@ -67,17 +59,9 @@ inline Shape make_torus(int n, int m, float R = 1.0f, float r = 0.35f) {
 }
 
 // A smooth, varied w x h equirectangular environment (RGB texels) for tests
-// whose gradients should see the look-up direction.
-inline std::vector<float> smooth_sky(int w, int h) {
-  std::vector<float> t;
-  for (int row = 0; row < h; ++row)
-    for (int col = 0; col < w; ++col) {
-      const float u = (col + 0.5f) / float(w), v = (row + 0.5f) / float(h);
-      t.insert(t.end(), {0.6f + 0.4f * std::sin(6.2831853f * u), 0.5f + 0.4f * std::cos(3.14159f * v),
-                         0.3f + 0.6f * u * v});
-    }
-  return t;
-}
+// whose gradients should see the look-up direction (the library's
+// render::varied_sky).
+inline std::vector<float> smooth_sky(int w, int h) { return difftrans::render::varied_sky(w, h); }
 
 // The triangles of a data/ mesh ("v x y z", "f a b c", also a/b/c
 // tokens), normalized as docs/conventions.md says: box centre at the origin, longest

@@ -73,9 +73,12 @@ class EmbreeScene {
     commit();
   }
 
-  // Closest hit along o + t d for t in [tnear, tfar]. Thread-safe.
+  // Closest hit along o + t d for t in [tnear, tfar]. Thread-safe. A ray
+  // Embree would refuse (an origin or direction not finite, a negative or NaN
+  // range) misses: Embree builds with assertions abort on one.
   RayHit intersect(const Vec3f& o, const Vec3f& d, float tnear = 0.0f,
                    float tfar = std::numeric_limits<float>::infinity()) const {
+    if (!std::isfinite(o.x + o.y + o.z + d.x + d.y + d.z) || !(tnear >= 0.0f) || !(tfar >= 0.0f)) return RayHit{};
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
     RTCRayHit rh;

@@ -125,6 +125,17 @@ inline VoxelShape block_with_holes(int holes, int hole = 2, int bar = 1, int thi
   return v;
 }
 
+// An axis-aligned box centred at the origin with half extents (hx, hy, hz):
+// 8 corners, each face two counter-clockwise triangles seen from outside.
+inline ProceduralMesh box(float hx, float hy, float hz) {
+  ProceduralMesh m;
+  for (int i = 0; i < 8; ++i) m.positions.insert(m.positions.end(), {i & 1 ? hx : -hx, i & 2 ? hy : -hy, i & 4 ? hz : -hz});
+  const int quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+  for (const auto& q : quads)
+    for (int k : {q[0], q[1], q[2], q[0], q[2], q[3]}) m.triangles.push_back(k);
+  return m;
+}
+
 // A sphere of `radius`: an icosahedron whose faces are split in four
 // `levels` times, every new vertex pushed onto the sphere (20·4^levels
 // triangles, 10·4^levels + 2 vertices).
