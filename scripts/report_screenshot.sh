@@ -12,7 +12,7 @@ browser=$(command -v chromium || command -v chromium-browser || true)
 page="file://$(cd "$dir" && pwd)/index.html"
 shot() {  # shot WIDTH HEIGHT FILE
   "$browser" --headless=new --no-sandbox --disable-gpu --hide-scrollbars --force-device-scale-factor=1 \
-    --window-size="$1,$2" --screenshot="$3" "$page" >/dev/null 2>&1
+    --virtual-time-budget=5000 --window-size="$1,$2" --screenshot="$3" "$page" >/dev/null 2>&1
   [ -s "$3" ] || { echo "report_screenshot: chromium wrote no $3" >&2; exit 1; }
   echo "report_screenshot: $3 (${1}x$2)"
 }
