@@ -27,7 +27,12 @@
 #include "report_page.hpp"
 #include "difftrans/io/image_file.hpp"
 #include "difftrans/io/png.hpp"
+#include "difftrans/io/material.hpp"
+#include "difftrans/io/mesh_file.hpp"
 #include "difftrans/render/hard_cases.hpp"
+#include "difftrans/render/passes.hpp"
+#include "difftrans/render/views.hpp"
+#include "difftrans/scene/camera.hpp"
 
 #ifndef DIFFTRANS_BUILD_FLAGS
 #define DIFFTRANS_BUILD_FLAGS "unknown"
@@ -52,6 +57,7 @@ struct Suite {
   std::vector<int> mask_noise;  // pixels of erosion and of dilation
   std::vector<std::string> stage1_iterations;
   int speed_resolution = 128, speed_views = 2, reference_depth = 16, reference_spp_axis = 16;
+  int gradient_size = 48;  // the gradient sweep's image side
   std::vector<int> depths, spp_axes;
   std::vector<std::string> roulettes;
 };
@@ -71,7 +77,7 @@ Suite make_suite(const std::string& name) {
     s.iors = {"1.3", "1.8"};
     s.mask_noise = {1};
     s.stage1_iterations = {"20"};
-    s.speed_resolution = 24, s.speed_views = 1, s.reference_spp_axis = 4;
+    s.speed_resolution = 24, s.speed_views = 1, s.reference_spp_axis = 4, s.gradient_size = 16;
     s.depths = {2, 8}, s.spp_axes = {1, 2}, s.roulettes = {"0", "0.01"};
   } else if (name == "quick") {
     s.scenes = {"spot-clear", "bunny-clear", "horse-green", "monkey-bands"};
@@ -94,7 +100,7 @@ Suite make_suite(const std::string& name) {
     s.iors = {"1.3", "1.4", "1.5", "1.6", "1.8"};
     s.mask_noise = {1, 2, 3};
     s.stage1_iterations = {"250", "500"};
-    s.speed_resolution = 256, s.speed_views = 4, s.reference_spp_axis = 16;
+    s.speed_resolution = 256, s.speed_views = 4, s.reference_spp_axis = 16, s.gradient_size = 96;
     s.depths = {2, 4, 8, 16}, s.spp_axes = {1, 2, 4, 8}, s.roulettes = {"0", "0.01", "0.03"};
   } else {
     throw std::runtime_error("report: unknown suite '" + name + "' (tiny, quick, full)");
@@ -294,6 +300,73 @@ std::string picture(const Runner& runner, const std::string& id, const std::stri
   fs::create_directories(out / "img");
   fs::copy_file(src, out / "img" / name, fs::copy_options::overwrite_existing);
   return "img/" + name;
+}
+
+// The gradient's time against its error, measured in this process on the
+// true object of a scene: reverse-mode gradients of a fixed weighting of one
+// view's pixels with respect to every parameter (vertices, IoR, absorption,
+// environment texels), at several depths and pruning thresholds in float,
+// against the same gradient in double at the training depth (4) without
+// pruning. Deeper trees are not compared: past a few interactions the
+// derivative of a path is chaotic (docs/stage2-diagnostics.md).
+struct GradientPoint {
+  std::string what;
+  int depth = 4;
+  float prune = 0.0f;
+  double seconds = 0, error = 0;
+};
+std::vector<GradientPoint> gradient_sweep(const fs::path& scene_dir, int size, double* reference_seconds) {
+  const fs::path gt = scene_dir / "gt";
+  render::HostScene s = render::make_host_scene(io::read_mesh(gt / "mesh.obj"), io::read_material(gt / "material.json"), "truth");
+  const io::Image env = io::read_image(gt / "envmap.hdr");
+  s.set_environment_map(env.rgb, env.width, env.height);
+  const scene::Camera cam = scene::protocol_camera(Vec3f(0.4f, 0.5f, 1.0f), size, size);
+  std::vector<float> adjoint(std::size_t(size) * std::size_t(size) * 3);
+  for (std::size_t i = 0; i < adjoint.size(); ++i) adjoint[i] = 0.5f + 0.5f * std::sin(0.37f * float(i));
+  const auto flat = [](const render::SceneGradient& g) {
+    std::vector<double> v;
+    for (const auto* a : {&g.positions, &g.ior, &g.absorption, &g.environment}) v.insert(v.end(), a->begin(), a->end());
+    return v;
+  };
+  const auto timed = [](auto&& f) {
+    double best = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < 2; ++k) {
+      const auto t0 = std::chrono::steady_clock::now();
+      f();
+      best = std::min(best, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    }
+    return best;
+  };
+  render::PassOptions ref_opt;
+  ref_opt.trace.max_depth = 4;
+  render::SceneGradient ref(s);
+  *reference_seconds = timed([&] {
+    ref = render::SceneGradient(s);
+    render::render_gradient<double>(s, cam, adjoint.data(), ref, ref_opt);
+  });
+  const std::vector<double> want = flat(ref);
+  std::vector<GradientPoint> points;
+  const auto point = [&](int depth, float prune) {
+    render::PassOptions o;
+    o.trace.max_depth = depth;
+    o.trace.prune_throughput = prune;
+    render::SceneGradient g(s);
+    GradientPoint p;
+    p.depth = depth, p.prune = prune;
+    p.what = "depth " + std::to_string(depth) + (prune > 0 ? ", pruned below " + number_text(prune, 2) : "");
+    p.seconds = timed([&] {
+      g = render::SceneGradient(s);
+      render::render_gradient<float>(s, cam, adjoint.data(), g, o);
+    });
+    const std::vector<double> got = flat(g);
+    double num = 0, den = 0;
+    for (std::size_t i = 0; i < got.size(); ++i) num += (got[i] - want[i]) * (got[i] - want[i]), den += want[i] * want[i];
+    p.error = den > 0 ? std::sqrt(num / den) : std::numeric_limits<double>::quiet_NaN();
+    points.push_back(p);
+  };
+  for (int depth : {1, 2, 3, 4}) point(depth, 0.0f);
+  for (float prune : {0.1f, 0.03f, 0.01f}) point(4, prune);
+  return points;
 }
 
 const char* colours[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b"};
@@ -514,6 +587,30 @@ std::vector<Section> collect(const Suite& s, const Runner& runner, const fs::pat
         }
     sec.plots.push_back(plot);
     sec.tables.push_back(t);
+    // the gradient, in this process
+    {
+      const std::string scene_id = sid(s.scenes.front(), "scene");
+      Plot gp{"speed_gradient", "Gradient time against gradient error", "seconds per gradient (one view)", "relative L2 error",
+              "", true, true, {}};
+      Table gt{"speed_gradient", "Gradient settings", "", {"setting", "seconds", "relative L2 error"}, {}};
+      if (runner.ok(scene_id)) {
+        double ref_seconds = 0;
+        const auto pts = gradient_sweep(runner.out(scene_id), s.gradient_size, &ref_seconds);
+        Series depth{"depth", colours[0], {}, true}, pruned{"depth 4, pruned", colours[1], {}, false};
+        for (const auto& q : pts) {
+          (q.prune > 0 ? pruned : depth).points.push_back({q.seconds, q.error, q.what, "", q.depth == 4 && q.prune == 0});
+          gt.rows.push_back({label(q.what), {number_text(q.seconds, 4), q.seconds, ""}, {sci_text(q.error, 2), q.error, ""}});
+        }
+        gt.rows.push_back({label("reference: double, depth 4"), {number_text(ref_seconds, 4), ref_seconds, ""}, label("0")});
+        gp.series = {depth, pruned};
+        gp.note = "The true " + s.scenes.front() + " object, one " + std::to_string(s.gradient_size) + "² view, measured in the "
+                  "report's own process (best of two). Error: relative L2 distance of the whole gradient (vertices, IoR, absorption, "
+                  "environment texels) from the double-precision gradient at depth 4, the training depth; ringed: float at depth 4, "
+                  "what stage 2 trains with before pruning.";
+      }
+      sec.plots.push_back(gp);
+      sec.tables.push_back(gt);
+    }
     Plot rec{"speed_reconstruction", "Reconstruction wall time against CD (study scene, stage-1 iterations)", "wall seconds",
              "CD after stage 1 (×1e-4)", "", true, true, {}};
     Series pts{"stage-1 iterations", colours[0], {}, true};
