@@ -1,11 +1,12 @@
 // difftrans degrade SCENE --out DIR: turns a synthesized scene directory into
 // a capture-like one — 8-bit sRGB PNG images (clamped), another exposure,
 // noisy poses (as a COLMAP binary model, or in transforms_train.json), masks
-// eroded or dilated, optionally carried in the images' alpha channel — with
+// eroded or dilated or with random blobs flipped, optionally carried in the images' alpha channel — with
 // gt/ and scene.json copied so that the metrics still work. The held-out test
 // views keep their exact poses (they are for evaluation); their images and
 // masks are degraded like the training views'. degrade.json records what was
 // done.
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <memory>
@@ -28,6 +29,8 @@ struct DegradeOptions {
   std::optional<double> pose_noise_trans;
   bool colmap_binary = false;
   int erode = 0, dilate = 0;
+  int blobs = 0;             // discs flipped in each mask
+  double blob_radius = 3.0;  // their radius in pixels
   bool mask_alpha = false;
   std::uint64_t seed = 1;
   bool overwrite = false;
@@ -88,12 +91,28 @@ PoseNoise perturb_poses(io::Split& split, const DegradeOptions& o, const Vec3d& 
   return noise;
 }
 
+// `count` discs of `radius` pixels, centred uniformly at random in the
+// mask's bounding box grown by the radius (the whole image for an empty
+// mask): where a segmentation goes wrong, near the object's outline.
+std::vector<io::Disc> random_blobs(const io::Mask& m, int count, double radius, std::mt19937_64& rng) {
+  int x0 = m.width, y0 = m.height, x1 = -1, y1 = -1;
+  for (int y = 0; y < m.height; ++y)
+    for (int x = 0; x < m.width; ++x)
+      if (m.at(x, y)) x0 = std::min(x0, x), y0 = std::min(y0, y), x1 = std::max(x1, x), y1 = std::max(y1, y);
+  if (x1 < 0) x0 = 0, y0 = 0, x1 = m.width - 1, y1 = m.height - 1;
+  std::uniform_real_distribution<double> ux(x0 - radius, x1 + 1 + radius), uy(y0 - radius, y1 + 1 + radius);
+  std::vector<io::Disc> discs;
+  for (int i = 0; i < count; ++i) discs.push_back({float(ux(rng)), float(uy(rng)), float(radius)});
+  return discs;
+}
+
 // Writes a frame's degraded image and mask into dir, updating its paths.
-void write_frame(io::Frame& f, const fs::path& dir, const DegradeOptions& o) {
+void write_frame(io::Frame& f, const fs::path& dir, const DegradeOptions& o, std::mt19937_64& rng) {
   if (o.exposure != 1.0)
     for (float& v : f.image.rgb) v *= float(o.exposure);
   io::Mask mask;
   if (f.has_mask() && f.mask.width > 0) mask = io::morph_mask(f.mask, o.dilate > 0 ? o.dilate : -o.erode);
+  if (o.blobs > 0 && mask.width > 0) mask = io::flip_discs(mask, random_blobs(mask, o.blobs, o.blob_radius, rng));
   const fs::path image = dir / "images" / (f.name + (o.png8 ? ".png" : linear_extension));
   if (o.mask_alpha) {  // RGBA PNG: the mask in the alpha channel (opaque where there is none)
     const auto rgb = io::tone_map(f.image);
@@ -132,7 +151,7 @@ void run(const DegradeOptions& o) {
   if (o.pose_noise_deg > 0.0 || (o.pose_noise_trans && *o.pose_noise_trans > 0.0))
     noise = perturb_poses(scene.train, o, centre, rng);
   for (io::Split* split : {&scene.train, &scene.test})
-    for (io::Frame& f : split->frames) write_frame(f, dir, o);
+    for (io::Frame& f : split->frames) write_frame(f, dir, o, rng);
   if (o.colmap_binary) {
     for (const auto& f : scene.train.frames)
       if (f.environment_only)
@@ -164,6 +183,9 @@ void run(const DegradeOptions& o) {
   j["mask_morphology"] = o.erode ? "eroded by " + std::to_string(o.erode) + " px"
                          : o.dilate ? "dilated by " + std::to_string(o.dilate) + " px"
                                     : std::string("none");
+  if (o.blobs > 0)
+    j["mask_blobs"] = {{"per_mask", o.blobs}, {"radius_px", o.blob_radius},
+                       {"placement", "centres uniform in the mask's bounding box grown by the radius; pixels within flipped"}};
   j["seed"] = o.seed;
   j["views"] = {{"train", scene.train.frames.size()}, {"test", scene.test.frames.size()}};
   io::write_json(dir / "degrade.json", j);
@@ -206,8 +228,13 @@ void add_degrade(CLI::App& app) {
   auto* dilate = cmd->add_option("--mask-dilate", o->dilate, "dilate the masks by N pixels (Euclidean disk)")
                      ->check(CLI::Range(0, 1000));
   erode->excludes(dilate);
+  cmd->add_option("--mask-blobs", o->blobs, "flip N random discs of each mask (inside <-> outside), near the object")
+      ->check(CLI::Range(0, 10000));
+  cmd->add_option("--mask-blob-radius", o->blob_radius, "radius of those discs in pixels")
+      ->capture_default_str()
+      ->check(CLI::Range(0.5, 1e4));
   cmd->add_flag("--mask-alpha", o->mask_alpha, "carry the masks in the PNG images' alpha channel (needs --png8)");
-  cmd->add_option("--seed", o->seed, "seed of the pose noise")->capture_default_str();
+  cmd->add_option("--seed", o->seed, "seed of the pose noise and the mask blobs")->capture_default_str();
   cmd->callback([o] { run(*o); });
 }
 

@@ -55,6 +55,8 @@ struct Suite {
   Args study_synth, study_stage1, study_stage2;
   std::vector<std::string> iors;
   std::vector<int> mask_noise;  // pixels of erosion and of dilation
+  std::vector<int> mask_blobs;  // random discs flipped per mask
+  std::string blob_radius = "3";
   std::vector<std::string> stage1_iterations;
   int speed_resolution = 128, speed_views = 2, reference_depth = 16, reference_spp_axis = 16;
   int gradient_size = 48;  // the gradient sweep's image side
@@ -76,6 +78,7 @@ Suite make_suite(const std::string& name) {
     s.study_stage2 = s.stage2;
     s.iors = {"1.3", "1.8"};
     s.mask_noise = {1};
+    s.mask_blobs = {2}, s.blob_radius = "2";
     s.stage1_iterations = {"20"};
     s.speed_resolution = 24, s.speed_views = 1, s.reference_spp_axis = 4, s.gradient_size = 16;
     s.depths = {2, 8}, s.spp_axes = {1, 2}, s.roulettes = {"0", "0.01"};
@@ -88,6 +91,7 @@ Suite make_suite(const std::string& name) {
     s.study_stage2 = {"--materials-iterations", "200"};
     s.iors = {"1.3", "1.4", "1.5", "1.6", "1.8"};
     s.mask_noise = {1, 3};
+    s.mask_blobs = {3};
     s.stage1_iterations = {"75", "150"};
     s.speed_resolution = 128, s.speed_views = 2, s.reference_spp_axis = 16;
     s.depths = {2, 4, 8, 16}, s.spp_axes = {1, 2, 4}, s.roulettes = {"0", "0.01"};
@@ -99,6 +103,7 @@ Suite make_suite(const std::string& name) {
     s.study_synth = {"--variant", "quick"};
     s.iors = {"1.3", "1.4", "1.5", "1.6", "1.8"};
     s.mask_noise = {1, 2, 3};
+    s.mask_blobs = {3, 8}, s.blob_radius = "4";
     s.stage1_iterations = {"250", "500"};
     s.speed_resolution = 256, s.speed_views = 4, s.reference_spp_axis = 16, s.gradient_size = 96;
     s.depths = {2, 4, 8, 16}, s.spp_axes = {1, 2, 4, 8}, s.roulettes = {"0", "0.01", "0.03"};
@@ -222,6 +227,13 @@ Plan make_plan(const Suite& s) {
              {"degrade", study, "--mask-" + how, std::to_string(k), "--out", "@OUT"}, "", {"study/scene"}});
       reconstruct_study(id, "study scene with masks " + how + "d by " + std::to_string(k) + " px", id + "-scene", {}, {});
     }
+  for (int n : s.mask_blobs) {
+    const std::string id = "study/mask-blobs-" + std::to_string(n);
+    p.add({id + "-scene", "study scene, " + std::to_string(n) + " blobs flipped per mask",
+           {"degrade", study, "--mask-blobs", std::to_string(n), "--mask-blob-radius", s.blob_radius, "--out", "@OUT"}, "",
+           {"study/scene"}});
+    reconstruct_study(id, "study scene with " + std::to_string(n) + " blobs flipped per mask", id + "-scene", {}, {});
+  }
   for (const auto& it : s.stage1_iterations) {
     reconstruct_study("study/iterations-" + it, "study scene, stage 1 with " + it + " + " + it + " iterations", "study/scene",
                       {"--iterations", it, "--refine-iterations", it}, {});
@@ -527,7 +539,10 @@ std::vector<Section> collect(const Suite& s, const Runner& runner, const fs::pat
       noise_row("eroded " + std::to_string(k) + " px", "study/mask-erode-" + std::to_string(k), -k);
       noise_row("dilated " + std::to_string(k) + " px", "study/mask-dilate-" + std::to_string(k), k);
     }
-    noise.note = "Masks eroded or dilated by a disk (difftrans degrade). Random flipped blobs are not in this suite yet.";
+    for (int n : s.mask_blobs)
+      noise_row(std::to_string(n) + " blobs of " + s.blob_radius + " px flipped", "study/mask-blobs-" + std::to_string(n), nan);
+    noise.note = "Masks eroded or dilated by a disk, or with random discs near the object flipped inside-out "
+                 "(difftrans degrade --mask-erode, --mask-dilate, --mask-blobs); the plot shows erosion and dilation.";
     np.series = {cd};
     sec.tables.push_back(noise);
     sec.plots.push_back(np);

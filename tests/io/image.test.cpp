@@ -67,3 +67,23 @@ TEST_CASE("mask dilation and erosion by a Euclidean disk") {
   // dilation then erosion of a square by 1 gives the square back
   CHECK(io::morph_mask(d1, -1).inside == m.inside);
 }
+
+TEST_CASE("mask blobs: pixels in a disc flipped once") {
+  io::Mask m(20, 20);
+  for (int y = 0; y < 20; ++y)
+    for (int x = 0; x < 10; ++x) m.inside[size_t(y) * 20 + size_t(x)] = 1;  // the left half inside
+  // a disc of radius 3 centred on a pixel corner of the boundary: 32 pixel centres within it
+  const io::Mask f = io::flip_discs(m, {{10.0f, 10.0f, 3.0f}});
+  std::size_t changed = 0;
+  for (std::size_t i = 0; i < m.inside.size(); ++i) changed += f.inside[i] != m.inside[i];
+  CHECK(changed == 32);
+  CHECK_FALSE(f.at(9, 9));  // inside the object, now out
+  CHECK(f.at(10, 10));      // outside, now in
+  CHECK(f.at(0, 0));        // far away: as it was
+  CHECK(f.count() == m.count());  // the disc straddles the edge evenly
+  // the same disc again flips back; two overlapping discs flip the overlap once
+  CHECK(io::flip_discs(f, {{10.0f, 10.0f, 3.0f}}).inside == m.inside);
+  const io::Mask twice = io::flip_discs(m, {{10.0f, 10.0f, 3.0f}, {10.0f, 10.0f, 3.0f}});
+  CHECK(twice.inside == f.inside);
+  CHECK(io::flip_discs(m, {}).inside == m.inside);
+}

@@ -81,6 +81,29 @@ inline Mask morph_mask(const Mask& mask, int radius) {
   return out;
 }
 
+// A disc of pixels: centre (x, y) in pixels, radius in pixels.
+struct Disc {
+  float x = 0, y = 0, radius = 0;
+};
+
+// The mask with every pixel whose centre lies within one of `discs` flipped
+// (inside <-> outside): the blobs a segmentation gets wrong. A pixel in two
+// discs is flipped once.
+inline Mask flip_discs(const Mask& mask, const std::vector<Disc>& discs) {
+  Mask out = mask;
+  for (int y = 0; y < mask.height; ++y)
+    for (int x = 0; x < mask.width; ++x)
+      for (const Disc& d : discs) {
+        const float dx = float(x) + 0.5f - d.x, dy = float(y) + 0.5f - d.y;
+        if (dx * dx + dy * dy <= d.radius * d.radius) {
+          std::uint8_t& v = out.inside[size_t(y) * size_t(mask.width) + size_t(x)];
+          v = v ? 0 : 1;
+          break;
+        }
+      }
+  return out;
+}
+
 // 8-bit values above this are inside the object (docs/scene-format.md: > 127).
 inline constexpr int mask_threshold = 127;
 
