@@ -2,8 +2,8 @@
 # then writes a page whose parts hold together: results.json parses and has
 # the sections, every table's CSV exists with a row per table row, every
 # picture and file the page points to exists, every link to a run lands on
-# that run, and the page's elements are closed. A second call reuses every
-# run. The numbers are whatever the runs measured; nothing here checks them.
+# that run, no id is given twice, and the page's elements are closed. A
+# second call reuses every run and writes the same tables. The numbers are whatever the runs measured; nothing here checks them.
 # Arguments: -DCOMMAND=path/to/difftrans -DWORK_DIR=folder
 cmake_minimum_required(VERSION 3.19)  # string(JSON), IN_LIST
 file(REMOVE_RECURSE ${WORK_DIR})
@@ -79,8 +79,8 @@ foreach(ref IN LISTS refs)
   if(path MATCHES "^[a-z]+:")
     message(FATAL_ERROR "the page points outside itself: ${path}")
   endif()
-  if(NOT EXISTS ${out}/${path})
-    message(FATAL_ERROR "the page points to ${path}, which is not there")
+  if(NOT EXISTS ${out}/${path} OR IS_DIRECTORY ${out}/${path})
+    message(FATAL_ERROR "the page points to ${path}, which is not a file there")
   endif()
   math(EXPR files_n "${files_n} + 1")
 endforeach()
@@ -102,8 +102,16 @@ foreach(a IN LISTS anchors)
     message(FATAL_ERROR "the page links to #${name}, which it does not hold")
   endif()
 endforeach()
-foreach(tag html body section table tr svg figure)
-  string(REGEX MATCHALL "<${tag}[ >]" opened "${page}")
+string(REGEX MATCHALL " id=\"[^\"]*\"" ids "${page}")
+list(LENGTH ids ids_n)
+set(unique_ids ${ids})
+list(REMOVE_DUPLICATES unique_ids)
+list(LENGTH unique_ids unique_n)
+if(NOT ids_n EQUAL unique_n)
+  message(FATAL_ERROR "the page gives ${ids_n} ids, of which only ${unique_n} differ")
+endif()
+foreach(tag html body section table tr td th svg figure div p a)
+  string(REGEX MATCHALL "<${tag}[ >]" opened "${page}")  # <path ...> is not <p ...>: the space or > after the name
   string(REGEX MATCHALL "</${tag}>" closed "${page}")
   list(LENGTH opened o)
   list(LENGTH closed c)
@@ -118,6 +126,9 @@ if(svgs_n LESS 4)
 endif()
 
 # a second call reuses every run and writes the same tables
+foreach(t geometry ior views mask_noise cost stability)
+  file(READ ${out}/${t}.csv before_${t})
+endforeach()
 execute_process(COMMAND ${COMMAND} report --suite tiny --out ${out}
                 RESULT_VARIABLE rc OUTPUT_QUIET ERROR_VARIABLE err2)
 if(NOT rc EQUAL 0)
@@ -128,5 +139,11 @@ list(LENGTH reused reused_n)
 if(NOT reused_n EQUAL runs_n)
   message(FATAL_ERROR "the second call reused ${reused_n} of ${runs_n} runs: ${err2}")
 endif()
+foreach(t geometry ior views mask_noise cost stability)
+  file(READ ${out}/${t}.csv after)
+  if(NOT after STREQUAL before_${t})
+    message(FATAL_ERROR "${t}.csv differs between the first call and the second, which reused every run")
+  endif()
+endforeach()
 message(STATUS "report: ${sections_n} sections, ${tables_total} tables, ${svgs_n} plots, ${pictures_n} pictures, ${files_n} files "
                "and ${anchors_n} run links checked; ${runs_n} runs, all reused the second time")

@@ -16,6 +16,8 @@
 #include <map>
 #include <stdexcept>
 #include <string>
+#include <thread>
+#include <utility>
 #include <vector>
 
 #include <fcntl.h>
@@ -57,9 +59,13 @@ struct JobRecord {
   bool reused = false;
   double wall_seconds = 0, cpu_seconds = 0, peak_memory_mb = 0;
   std::string command;  // the shell line that repeats it, from the work folder
+  std::string stamp;    // which execution made the files (a run reading them records it)
+  std::map<std::string, std::string> inputs;  // the stamps of the runs it read
   io::Json json() const {
     return {{"id", id},
             {"hash", hash},
+            {"stamp", stamp},
+            {"inputs", inputs},
             {"build", build},
             {"status", status},
             {"exit_code", exit_code},
@@ -82,11 +88,12 @@ inline std::string hex64(std::uint64_t h) {
   return buf;
 }
 
-// This program's path and a hash of its bytes: which build made a run.
+// This program, as the kernel holds it (the runs start the same bytes even
+// when the file is rebuilt meanwhile), and a hash of its bytes: which build
+// made a run.
 inline fs::path self_executable() {
-  std::error_code ec;
-  const fs::path p = fs::read_symlink("/proc/self/exe", ec);
-  if (ec) throw std::runtime_error("report: cannot find this program's own path (/proc/self/exe): " + ec.message());
+  const fs::path p = "/proc/self/exe";
+  if (!fs::exists(p)) throw std::runtime_error("report: cannot find this program (/proc/self/exe)");
   return p;
 }
 inline std::string build_id(const fs::path& exe) {
@@ -145,9 +152,19 @@ class Runner {
       for (const auto& b : jobs)
         if (&a != &b && (b.id == a.id || b.id.rfind(a.id + "/", 0) == 0))
           throw std::logic_error("report: run '" + b.id + "' would live inside run '" + a.id + "'");
+    std::map<std::string, std::string> anchors;
+    for (const auto& j : jobs) {
+      std::string a;
+      for (char c : j.id) a += std::isalnum(static_cast<unsigned char>(c)) ? c : '-';
+      if (!anchors.emplace(a, j.id).second)
+        throw std::logic_error("report: runs '" + anchors[a] + "' and '" + j.id + "' would share a link on the page");
+    }
     const auto start = std::chrono::steady_clock::now();
     for (std::size_t i = 0; i < jobs.size(); ++i) {
       const Job& job = jobs[i];
+      if (const int sig = stop_requested())
+        throw Interrupted(sig, "report: stopped before " + job.title + "; finished runs are kept in " + work_.string() +
+                                   ": the same command goes on from there");
       char head[64];
       std::snprintf(head, sizeof head, "report: [%zu/%zu] ", i + 1, jobs.size());
       JobRecord r = run(job);
@@ -206,7 +223,8 @@ class Runner {
         shown.erase(p, work_placeholder.size() + 1);
       cmd += " " + shell_word(shown);
     }
-    if (!job.copy_from.empty()) cmd = "cp -r " + job.copy_from + "/out " + job.id + "/out && " + cmd;
+    if (!job.copy_from.empty())
+      cmd = "mkdir -p " + job.id + " && rm -rf " + job.id + "/out && cp -r " + job.copy_from + "/out " + job.id + "/out && " + cmd;
     r.command = cmd;
     const fs::path dir = folder(job.id);
     const fs::path record_file = dir / "job.json";
@@ -219,25 +237,41 @@ class Runner {
       r.status = "skipped";
       return r;
     }
+    for (const auto& d : job.after) r.inputs[d] = record(d)->stamp;
+    if (!job.copy_from.empty()) r.inputs[job.copy_from] = record(job.copy_from)->stamp;
+    bool resume = false;  // an interrupted reconstruct: its folder holds a checkpoint to go on from
     if (!rerun_ && fs::exists(record_file)) {
       try {
         const io::Json old = io::read_json(record_file);
-        if (old.value("hash", "") == r.hash && old.value("status", "") == "done") {
+        // a record without stamps (an earlier version's) read inputs that had none either
+        std::map<std::string, std::string> read;
+        if (old.contains("inputs") && old["inputs"].is_object())
+          read = old["inputs"].get<std::map<std::string, std::string>>();
+        else
+          for (const auto& [d, stamp] : r.inputs) read[d] = "";
+        const bool same_inputs = read == r.inputs;
+        resume = old.value("hash", "") == r.hash && old.value("status", "") == "interrupted" && same_inputs &&
+                 !job.args.empty() && job.args.front() == "reconstruct";
+        if (old.value("hash", "") == r.hash && old.value("status", "") == "done" && same_inputs) {
           r.status = "done";
           r.reused = true;
           r.build = old.value("build", "");
           r.wall_seconds = old.value("wall_seconds", 0.0);
           r.cpu_seconds = old.value("cpu_seconds", 0.0);
           r.peak_memory_mb = old.value("peak_memory_mb", 0.0);
+          r.stamp = old.value("stamp", "");
           return r;
         }
       } catch (const std::exception& e) {
         warn("report: " + record_file.string() + " unreadable (" + e.what() + "): the run is made again");
       }
     }
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-    if (!job.copy_from.empty()) fs::copy(out(job.copy_from), out(job.id), fs::copy_options::recursive);
+    if (!resume) {
+      fs::remove_all(dir);
+      fs::create_directories(dir);
+      if (!job.copy_from.empty()) fs::copy(out(job.copy_from), out(job.id), fs::copy_options::recursive);
+    }
+    fs::remove(record_file);
 
     std::vector<std::string> args{exe_.string()};
     for (const auto& a : job.args) args.push_back(expand(a, job.id));
@@ -249,15 +283,33 @@ class Runner {
     const std::string out_file = (dir / "stdout.json").string(), log_file = (dir / "log.txt").string();
     posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, out_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, log_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    // its own process group: Ctrl-C at a terminal reaches this program alone,
+    // which passes it on once (below)
+    posix_spawnattr_t attributes;
+    posix_spawnattr_init(&attributes);
+    posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETPGROUP);
+    posix_spawnattr_setpgroup(&attributes, 0);
     const auto t0 = std::chrono::steady_clock::now();
     pid_t pid = 0;
-    const int err = posix_spawn(&pid, exe_.c_str(), &actions, nullptr, argv.data(), environ);
+    const int err = posix_spawn(&pid, exe_.c_str(), &actions, &attributes, argv.data(), environ);
     posix_spawn_file_actions_destroy(&actions);
+    posix_spawnattr_destroy(&attributes);
     if (err != 0) throw std::runtime_error("report: cannot start " + exe_.string() + ": " + std::strerror(err));
+    // wait, polling, so that a SIGINT / SIGTERM sent to this process alone
+    // reaches the run too (it then saves what it can and stops)
     int status = 0;
     rusage usage{};
-    while (wait4(pid, &status, 0, &usage) < 0) {
-      if (errno != EINTR) throw std::runtime_error(std::string("report: waiting for a run failed: ") + std::strerror(errno));
+    bool forwarded = false;
+    for (;;) {
+      const pid_t done = wait4(pid, &status, WNOHANG, &usage);
+      if (done == pid) break;
+      if (done < 0 && errno != EINTR)
+        throw std::runtime_error(std::string("report: waiting for a run failed: ") + std::strerror(errno));
+      if (const int sig = stop_requested(); sig && !forwarded) {
+        kill(pid, sig);
+        forwarded = true;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
     r.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     r.cpu_seconds = double(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
@@ -265,12 +317,14 @@ class Runner {
     r.peak_memory_mb = double(usage.ru_maxrss) / 1024.0;
     const int sig = WIFSIGNALED(status) ? WTERMSIG(status) : 0;
     r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + sig;
-    if (sig == SIGINT || sig == SIGTERM || r.exit_code == 130 || r.exit_code == 143 || stop_requested())
+    r.stamp = std::to_string(std::chrono::system_clock::now().time_since_epoch().count()) + "-" + std::to_string(pid);
+    const bool stopped = sig == SIGINT || sig == SIGTERM || r.exit_code == 130 || r.exit_code == 143 || stop_requested();
+    r.status = r.exit_code == 0 ? "done" : stopped ? "interrupted" : "failed";
+    io::write_json(record_file, r.json());  // a run that finished is kept even when a stop came meanwhile
+    if (stopped)
       throw Interrupted(sig ? sig : (r.exit_code == 143 ? SIGTERM : SIGINT),
                         "report: stopped during " + job.title + "; finished runs are kept in " + work_.string() +
                             ": the same command goes on from there");
-    r.status = r.exit_code == 0 ? "done" : "failed";
-    io::write_json(record_file, r.json());
     return r;
   }
 

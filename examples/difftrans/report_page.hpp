@@ -104,7 +104,8 @@ inline std::string anchor(const std::string& job) {
   return a;
 }
 inline std::string csv_field(const std::string& s) {
-  if (s.find_first_of(",\"\n") == std::string::npos) return s;
+  if (s == "–") return "";  // a number not measured
+  if (s.find_first_of(",\"\r\n") == std::string::npos) return s;
   std::string q = "\"";
   for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
   return q + "\"";
@@ -323,7 +324,7 @@ inline void write_page(const fs::path& out, const std::vector<Section>& sections
     h += "<section id=\"" + sec.id + "\"><h2>" + html_escape(sec.title) + "</h2>\n";
     if (!sec.intro.empty()) h += "<p>" + sec.intro + "</p>\n";
     for (const auto& t : sec.tables) {
-      h += "<h3 id=\"" + t.id + "\">" + html_escape(t.title) + "</h3>\n<div class=\"scroll\"><table><thead><tr>";
+      h += "<h3 id=\"table-" + t.id + "\">" + html_escape(t.title) + "</h3>\n<div class=\"scroll\"><table><thead><tr>";
       for (const auto& c : t.columns) h += "<th>" + html_escape(c) + "</th>";
       h += "</tr></thead><tbody>\n";
       for (const auto& row : t.rows) {
@@ -344,7 +345,7 @@ inline void write_page(const fs::path& out, const std::vector<Section>& sections
       h += "<p class=\"note\"><a href=\"" + t.id + ".csv\">" + t.id + ".csv</a></p>\n";
     }
     for (const auto& p : sec.plots) {
-      h += "<h3 id=\"" + p.id + "\">" + html_escape(p.title) + "</h3>\n" + plot_svg(p);
+      h += "<h3 id=\"plot-" + p.id + "\">" + html_escape(p.title) + "</h3>\n" + plot_svg(p);
       if (!p.note.empty()) h += "<p class=\"note\">" + p.note + "</p>\n";
     }
     for (const auto& pic : sec.pictures)

@@ -2,6 +2,7 @@
 // tone mapping of docs/conventions.md (exposure 1, clamp to [0, 1], sRGB curve, 8 bits).
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -90,17 +91,19 @@ struct Disc {
 // (inside <-> outside): the blobs a segmentation gets wrong. A pixel in two
 // discs is flipped once.
 inline Mask flip_discs(const Mask& mask, const std::vector<Disc>& discs) {
-  Mask out = mask;
-  for (int y = 0; y < mask.height; ++y)
-    for (int x = 0; x < mask.width; ++x)
-      for (const Disc& d : discs) {
+  std::vector<std::uint8_t> in_disc(mask.inside.size(), 0);
+  for (const Disc& d : discs) {  // the pixels of each disc's bounding box
+    const int x0 = std::max(0, int(std::floor(d.x - d.radius))), x1 = std::min(mask.width - 1, int(std::ceil(d.x + d.radius)));
+    const int y0 = std::max(0, int(std::floor(d.y - d.radius))), y1 = std::min(mask.height - 1, int(std::ceil(d.y + d.radius)));
+    for (int y = y0; y <= y1; ++y)
+      for (int x = x0; x <= x1; ++x) {
         const float dx = float(x) + 0.5f - d.x, dy = float(y) + 0.5f - d.y;
-        if (dx * dx + dy * dy <= d.radius * d.radius) {
-          std::uint8_t& v = out.inside[size_t(y) * size_t(mask.width) + size_t(x)];
-          v = v ? 0 : 1;
-          break;
-        }
+        if (dx * dx + dy * dy <= d.radius * d.radius) in_disc[size_t(y) * size_t(mask.width) + size_t(x)] = 1;
       }
+  }
+  Mask out = mask;
+  for (size_t i = 0; i < out.inside.size(); ++i)
+    if (in_disc[i]) out.inside[i] = out.inside[i] ? 0 : 1;
   return out;
 }
 

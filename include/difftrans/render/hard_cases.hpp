@@ -156,6 +156,7 @@ inline HardCaseResult check_hard_case(const HardCase& hc, const TraceSettings& s
     for (int k = 0; k < 3; ++k) {
       ++r.values;
       r.nonfinite_values += !std::isfinite(L[k].value);
+      r.negative_values += L[k].value < 0.0;
     }
     tape.zero_adjoints();
     for (int k = 0; k < 3; ++k) tape.seed(L[k], 1.0);
