@@ -626,7 +626,7 @@ std::vector<Section> collect(const Suite& s, const Runner& runner, const fs::pat
       if (runner.ok(scene_id)) {
         double ref_seconds = 0;
         const auto pts = gradient_sweep(runner.out(scene_id), s.gradient_size, &ref_seconds);
-        Series depth{"depth", colours[0], {}, true}, pruned{"depth 4, pruned", colours[1], {}, false};
+        Series depth{"depth", colours[0], {}, false}, pruned{"depth 4, pruned", colours[1], {}, false};
         for (const auto& q : pts) {
           (q.prune > 0 ? pruned : depth).points.push_back({q.seconds, q.error, q.what, "", q.depth == 4 && q.prune == 0});
           gt.rows.push_back({label(q.what), {number_text(q.seconds, 4), q.seconds, ""}, {sci_text(q.error, 2), q.error, ""}});
@@ -710,6 +710,19 @@ std::vector<Section> collect(const Suite& s, const Runner& runner, const fs::pat
     }
     t.note = "Environment: the model choice plus the fit. The whole suite's runs, one by one, are listed under Runs.";
     sec.tables.push_back(t);
+    Table tr{"throughput", "Tracing throughput (the speed renders of section 5)", "", {"render", "camera rays per second",
+                                                                                       "ray segments per second", "segments per camera ray"}, {}};
+    for (const auto& [id, what] : std::vector<std::pair<std::string, std::string>>{
+             {"speed/d16-s4-r0", "the render command's defaults (depth 16, 4×4 samples)"},
+             {"speed/d16-s4-r0.01", "the same with roulette below 0.01"},
+             {"speed/reference", "the converged reference"}}) {
+      const io::Json r = runner.result(id);
+      if (r.is_null()) continue;
+      const double trace_s = at(r, "/trace/seconds"), rays = at(r, "/trace/camera_rays"), segs = at(r, "/trace/segments");
+      tr.rows.push_back({label(what), sci(rays / trace_s, 3, id), sci(segs / trace_s, 3, id), number(segs / rays, 2, id)});
+    }
+    tr.note = "Threads per run as in the footer; the tracer's own seconds (no image writing).";
+    sec.tables.push_back(tr);
     return sec;
   });
   return sections;
@@ -731,6 +744,7 @@ struct ReportOptions {
   std::string out = "report";
   std::string work;
   bool rerun = false;
+  bool list = false;
 };
 
 void run_report(const ReportOptions& o) {
@@ -739,6 +753,12 @@ void run_report(const ReportOptions& o) {
   const fs::path work = o.work.empty() ? out / "runs" : fs::absolute(o.work);
   Runner runner(work, o.rerun);
   const Plan plan = make_plan(suite);
+  if (o.list) {  // the plan alone: what would run, from the work folder
+    io::Json runs = io::Json::array();
+    for (const auto& j : plan.jobs) runs.push_back({{"id", j.id}, {"title", j.title}, {"command", runner.command_line(j)}});
+    emit_json({{"suite", o.suite}, {"work", work.string()}, {"runs", runs}}, std::nullopt);
+    return;
+  }
   progress("report: " + o.suite + " suite, " + std::to_string(plan.jobs.size()) + " runs in " + work.string());
   {
     StopSignals signals;  // only while the runs go: a stop then ends the run going, and the report
@@ -790,6 +810,7 @@ void add_report(CLI::App& app) {
   cmd->add_option("--out", o->out, "folder of the page")->capture_default_str();
   cmd->add_option("--work", o->work, "folder of the runs (default: OUT/runs)");
   cmd->add_flag("--rerun", o->rerun, "make every run again instead of reusing finished ones");
+  cmd->add_flag("--list", o->list, "print the suite's runs and their commands (JSON) and stop");
   cmd->callback([o] { run_report(*o); });
 }
 

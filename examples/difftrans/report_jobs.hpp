@@ -122,7 +122,22 @@ class Runner {
  public:
   Runner(fs::path work, bool rerun) : work_(fs::absolute(std::move(work))), rerun_(rerun), exe_(self_executable()) {
     build_ = build_id(exe_);
-    fs::create_directories(work_);
+  }
+
+  // The shell line that repeats a run from the work folder.
+  std::string command_line(const Job& job) const {
+    std::string cmd = "difftrans";
+    for (const auto& a : job.args) {
+      std::string shown = a;
+      for (std::size_t p = shown.find("@OUT"); p != std::string::npos; p = shown.find("@OUT", p + 1))
+        shown.replace(p, 4, job.id + "/out");
+      for (std::size_t p = shown.find(work_placeholder + "/"); p != std::string::npos; p = shown.find(work_placeholder + "/", p))
+        shown.erase(p, work_placeholder.size() + 1);
+      cmd += " " + shell_word(shown);
+    }
+    if (!job.copy_from.empty())
+      cmd = "mkdir -p " + job.id + " && rm -rf " + job.id + "/out && cp -r " + job.copy_from + "/out " + job.id + "/out && " + cmd;
+    return cmd;
   }
 
   const fs::path& work() const { return work_; }
@@ -147,6 +162,7 @@ class Runner {
 
   // Runs (or reuses) every job in order, one progress line each.
   void run_all(const std::vector<Job>& jobs) {
+    fs::create_directories(work_);
     // a run's folder is removed before it is made again: none may hold another's
     for (const auto& a : jobs)
       for (const auto& b : jobs)
@@ -214,18 +230,7 @@ class Runner {
     r.id = job.id;
     r.hash = hash_of(job);
     r.build = build_;
-    std::string cmd = "difftrans";
-    for (const auto& a : job.args) {
-      std::string shown = a;
-      for (std::size_t p = shown.find("@OUT"); p != std::string::npos; p = shown.find("@OUT", p + 1))
-        shown.replace(p, 4, job.id + "/out");
-      for (std::size_t p = shown.find(work_placeholder + "/"); p != std::string::npos; p = shown.find(work_placeholder + "/", p))
-        shown.erase(p, work_placeholder.size() + 1);
-      cmd += " " + shell_word(shown);
-    }
-    if (!job.copy_from.empty())
-      cmd = "mkdir -p " + job.id + " && rm -rf " + job.id + "/out && cp -r " + job.copy_from + "/out " + job.id + "/out && " + cmd;
-    r.command = cmd;
+    r.command = command_line(job);
     const fs::path dir = folder(job.id);
     const fs::path record_file = dir / "job.json";
     for (const auto& d : job.after)
