@@ -59,6 +59,7 @@ struct Suite {
   std::vector<int> mask_blobs;  // random discs flipped per mask
   std::string blob_radius = "3";
   std::vector<std::string> stage1_iterations;
+  std::vector<std::string> stage1_batches;  // training views per stage-1 iteration (the default is 8)
   int speed_resolution = 128, speed_views = 2, reference_depth = 16, reference_spp_axis = 16;
   int gradient_size = 48;  // the gradient sweep's image side
   std::vector<int> depths, spp_axes;
@@ -81,6 +82,7 @@ Suite make_suite(const std::string& name) {
     s.mask_noise = {1};
     s.mask_blobs = {2}, s.blob_radius = "2";
     s.stage1_iterations = {"20"};
+    s.stage1_batches = {"2"};
     s.speed_resolution = 24, s.speed_views = 1, s.reference_spp_axis = 8, s.gradient_size = 16;
     s.depths = {2, 16}, s.spp_axes = {1, 4}, s.roulettes = {"0", "0.01"};
   } else if (name == "quick") {
@@ -94,6 +96,7 @@ Suite make_suite(const std::string& name) {
     s.mask_noise = {1, 3};
     s.mask_blobs = {3};
     s.stage1_iterations = {"75", "150"};
+    s.stage1_batches = {"2", "4"};
     s.speed_resolution = 128, s.speed_views = 2, s.reference_spp_axis = 16;
     s.depths = {2, 4, 8, 16}, s.spp_axes = {1, 2, 4}, s.roulettes = {"0", "0.01"};
   } else if (name == "full") {
@@ -106,6 +109,7 @@ Suite make_suite(const std::string& name) {
     s.mask_noise = {1, 2, 3};
     s.mask_blobs = {3, 8}, s.blob_radius = "4";
     s.stage1_iterations = {"250", "500"};
+    s.stage1_batches = {"2", "4"};
     s.speed_resolution = 256, s.speed_views = 4, s.reference_spp_axis = 16, s.gradient_size = 96;
     s.depths = {2, 4, 8, 16}, s.spp_axes = {1, 2, 4, 8}, s.roulettes = {"0", "0.01", "0.03"};
   } else {
@@ -239,6 +243,9 @@ Plan make_plan(const Suite& s) {
     reconstruct_study("study/iterations-" + it, "study scene, stage 1 with " + it + " + " + it + " iterations", "study/scene",
                       {"--iterations", it, "--refine-iterations", it}, {});
   }
+  for (const auto& b : s.stage1_batches)
+    reconstruct_study("study/batch-" + b, "study scene, stage 1 with " + b + " views per iteration", "study/scene",
+                      {"--batch", b, "--refine-batch", b}, {});
   // one shape at several true IoRs: a sphere under the study scene's map
   p.add({"ior/sphere", "an icosphere mesh", {"shape", "sphere-5", "--out", "@WORK/ior/sphere/sphere.obj"}, "", {}});
   for (const auto& ior : s.iors) {
@@ -641,7 +648,7 @@ std::vector<Section> collect(const Suite& s, const Runner& runner, const fs::pat
       sec.plots.push_back(gp);
       sec.tables.push_back(gt);
     }
-    Plot rec{"speed_reconstruction", "Reconstruction wall time against CD (study scene, stage-1 iterations)", "wall seconds",
+    Plot rec{"speed_reconstruction", "Reconstruction wall time against CD (study scene: stage-1 iterations and views per iteration)", "wall seconds",
              "CD after stage 1 (×1e-4)", "", true, true, {}};
     Series pts{"stage-1 iterations", colours[0], {}, true};
     std::vector<std::string> ids{"study/default"};
@@ -652,9 +659,21 @@ std::vector<Section> collect(const Suite& s, const Runner& runner, const fs::pat
       pts.points.push_back({jr && jr->status == "done" ? jr->wall_seconds : nan,
                             at(rd.reconstruction(id), "/geometry/final/chamfer") * 1e4, it + " iterations", id, id == "study/default"});
     }
-    rec.series = {pts};
-    rec.note = "Wall time of the whole run (environment, stage 1, stage 2); the points differ only in stage 1's iteration counts. "
-               "Ringed: the study's own counts.";
+    Series batch{"stage-1 views per iteration", colours[1], {}, true};
+    for (const auto& b : s.stage1_batches) {
+      const std::string id = "study/batch-" + b;
+      const JobRecord* jr = runner.record(id);
+      batch.points.push_back({jr && jr->status == "done" ? jr->wall_seconds : nan,
+                              at(rd.reconstruction(id), "/geometry/final/chamfer") * 1e4, b + " views per iteration", id, false});
+    }
+    if (!s.stage1_batches.empty()) {  // the default, 8, is the ringed point of the first series
+      const JobRecord* jr = runner.record("study/default");
+      batch.points.push_back({jr && jr->status == "done" ? jr->wall_seconds : nan,
+                              at(rd.reconstruction("study/default"), "/geometry/final/chamfer") * 1e4, "8 views per iteration", "study/default", false});
+    }
+    rec.series = {pts, batch};
+    rec.note = "Wall time of the whole run (environment, stage 1, stage 2); blue: stage 1's iteration counts, red: the training "
+               "views (and so the rays) stage 1 renders per iteration (8 by default). Ringed: the study's own settings.";
     sec.plots.push_back(rec);
     return sec;
   });
