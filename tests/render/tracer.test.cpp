@@ -3,7 +3,7 @@
 // sphere's central ray, the white furnace — its gradients against central
 // finite differences in double (vertices, IoR, homogeneous and grid
 // absorption, environment texels; sphere, cube, spot), forward against
-// reverse mode, and the hard cases, which must stay finite. Near-field
+// reverse mode (the hard cases are in hard_cases.test.cpp). Near-field
 // escapes: rays that leave the object read a radiance field (or a room) at
 // their own origin and direction.
 #include "support/ad_check.hpp"
@@ -12,7 +12,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <limits>
 #include <numeric>
 #include <utility>
 #include <vector>
@@ -717,42 +716,6 @@ TEST_CASE("gradient_refractions: derivatives along the main refraction path only
   const std::int64_t n_main = nodes(ts), n_every = nodes(every);
   MESSAGE("tape nodes over 8 sphere rays: main path " << n_main << ", every branch " << n_every);
   CHECK(n_main < n_every / 2);
-}
-
-TEST_CASE("hard cases stay finite, values and gradients") {
-  // the list lives in the library (render/hard_cases.hpp): difftrans report
-  // prints these same counts
-  TraceSettings ts;
-  ts.max_depth = 8;
-  const auto cases = difftrans::render::hard_cases();
-  CHECK(cases.size() >= 8);
-  for (const auto& c : cases) {
-    CAPTURE(c.name);
-    const difftrans::render::HardCaseResult r = difftrans::render::check_hard_case(c, ts);
-    CHECK(r.rays == int(c.rays.size()));
-    CHECK(r.values == 6 * std::int64_t(c.rays.size()));
-    CHECK(r.gradients > 0);
-    CHECK(r.nonfinite_values == 0);
-    CHECK(r.negative_values == 0);
-    CHECK(r.nonfinite_gradients == 0);
-    CHECK(r.tape_overflows == 0);
-    CHECK(r.clean());
-  }
-}
-
-TEST_CASE("hard cases: the check counts what is not finite") {
-  // the same check must see a NaN when there is one: glass of IoR NaN (the
-  // radiance stays finite, its derivatives do not)
-  TraceSettings ts;
-  ts.max_depth = 8;
-  difftrans::render::HardCase c = difftrans::render::hard_cases().front();
-  c.ior = std::numeric_limits<float>::quiet_NaN();
-  c.rays = {{Vec3f(0.2f, 0.1f, 3), Vec3f(0, 0, -1)}};
-  const difftrans::render::HardCaseResult r = difftrans::render::check_hard_case(c, ts);
-  MESSAGE("IoR NaN: " << r.nonfinite_values << " of " << r.values << " values, " << r.nonfinite_gradients << " of "
-                      << r.gradients << " gradient entries not finite");
-  CHECK(r.nonfinite_gradients > 0);
-  CHECK_FALSE(r.clean());
 }
 
 TEST_CASE("two-level normals give the one-ring gradient") {
