@@ -1,5 +1,7 @@
 // The host thread pool: every index exactly once, worker ids in range,
 // exceptions carried back to the caller, and the pool reusable afterwards.
+#include <stdexcept>
+
 #include "support/ad_check.hpp"
 
 #include "difftrans/core/parallel.hpp"

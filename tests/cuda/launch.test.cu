@@ -52,6 +52,14 @@ int run(const char* name, const std::vector<dp::OpticsItem>& items) {
     for (int k = 0; k < 4; ++k) ok = ok && close(device[i].grad[k], host[i].grad[k]);
     bad += !ok;
     overflowed += full;
+    if (!ok && bad <= 3) {
+      const dp::OpticsItem& it = items[std::size_t(i)];
+      const float cos_i = it.wi[0] * it.n[0] + it.wi[1] * it.n[1] + it.wi[2] * it.n[2];
+      std::printf("  item %d (cos_i %.9g, eta %.9g): value %.9g / %.9g, gradient", i, cos_i, it.eta,
+                  device[i].value, host[i].value);
+      for (int k = 0; k < 4; ++k) std::printf(" %.6g / %.6g", device[i].grad[k], host[i].grad[k]);
+      std::printf(" (device / host)\n");
+    }
   }
   std::printf("%-16s %d items, %d differ from the host or overflowed the tape (%d overflowed)\n", name, n, bad,
               overflowed);

@@ -1,12 +1,33 @@
-// Device path of the tracer: a glass sphere (grid absorption, equirect
-// environment) and spot rendered on the GPU through the portable BVH —
-// image (float), derivative along the IoR (Dual<float, 1>) and gradient
-// (Var<float>, per-thread tape) — compared with the host passes, which use
-// Embree. Exits 77 (skipped) when no CUDA device is present; the same
-// kernels run on the host in tests/accel/bvh.test.cpp.
+// Device path of the tracer: scenes rendered on the GPU through the portable
+// BVH — image (float), derivatives (Dual<float, 1>) and gradient
+// (Var<float>) — compared with the host passes (Embree), at the sizes the
+// command uses (64² to 1024², depth 4 to 16).
+//
+// What "agree" means. The device rounds differently (fused multiply-adds,
+// its own exp and atan2), and a few rays of a refracting scene are so
+// ill-conditioned that any change in the last bit moves their value or
+// derivative by far more than a tolerance: rays near the critical angle,
+// rays that graze an edge, paths deep in a total-internal-reflection loop.
+// The host shows the same thing on its own: rendered again from an eye moved
+// by one float step, those pixels change (tests/render/conditioning.test.cpp
+// measures it). So each comparison first renders the host twice more, from
+// eyes moved by one ulp, and calls a pixel unstable where the host disagrees
+// with itself. Then:
+//   - the device may differ from the host only on unstable pixels, plus a
+//     counted share of stable ones (a BVH that picks the other of two
+//     triangles at an edge), at most max_stable_mismatch;
+//   - derivatives agree to 1e-3 relative L2 over the stable pixels;
+//   - the gradient of a loss whose dLoss/dpixel is zero on the unstable and
+//     mismatched pixels agrees to 1e-3 relative L2 in every buffer, and no
+//     ray loses its gradient to a full tape.
+// Exits 77 (skipped) when no CUDA device is present. Arguments: `quick` runs
+// the 64² cases only.
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -21,137 +42,255 @@ using difftrans::Vec3i;
 
 namespace {
 
-dr::HostScene make_scene(const dt_test::Shape& shape) {
-  dr::HostScene s(shape.positions, shape.triangles, "device test");
+constexpr double max_stable_mismatch = 0.002;  // share of stable pixels the device may still differ on
+
+dr::HostScene make_scene(const std::string& name) {
+  const dt_test::Shape shape = name == "sphere" ? dt_test::make_icosphere(0.5f, 3)
+                                                : dt_test::load_normalized_mesh(std::string(DIFFTRANS_DATA_DIR) +
+                                                                                "/meshes/" + name + ".obj");
+  dr::HostScene s(shape.positions, shape.triangles, name);
   s.ior = 1.45f;
   s.set_environment_map(dt_test::smooth_sky(32, 16), 32, 16);
-  std::vector<float> raw(4 * 4 * 4 * 3);
-  for (std::size_t i = 0; i < raw.size(); ++i) raw[i] = difftrans::scene::raw_from_sigma(0.2f + 0.1f * float(i % 7));
-  s.set_grid_absorption(Vec3i(4, 4, 4), Vec3f(-0.55f), Vec3f(0.55f), raw);
+  if (name == "sphere") {
+    std::vector<float> raw(4 * 4 * 4 * 3);
+    for (std::size_t i = 0; i < raw.size(); ++i) raw[i] = difftrans::scene::raw_from_sigma(0.2f + 0.1f * float(i % 7));
+    s.set_grid_absorption(Vec3i(4, 4, 4), Vec3f(-0.55f), Vec3f(0.55f), raw);
+  } else {
+    s.set_homogeneous_absorption(Vec3f(0.3f, 0.6f, 1.2f));
+  }
   return s;
 }
 
-// Share of entries where a and b differ by more than tol (relative to max(1, |b|)).
-double share_differing(const std::vector<float>& a, const std::vector<float>& b, double tol, double* max_diff) {
-  std::size_t bad = 0;
-  *max_diff = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    const double d = std::abs(double(a[i]) - double(b[i]));
-    *max_diff = std::max(*max_diff, d);
-    bad += !(d <= tol * std::max(1.0, std::abs(double(b[i]))));
+difftrans::scene::Camera camera(int size, int nudge) {
+  auto cam = difftrans::scene::look_at_camera(Vec3f(0.3f, 0.4f, 1.6f), Vec3f(0.0f), Vec3f(0, 1, 0), 0.9f, size, size);
+  // the eye moved by one float step along x (nudge 1) or y (nudge 2)
+  if (nudge > 0) {
+    float& c = cam.camera_to_world[3][nudge - 1];
+    c = std::nextafter(c, 10.0f);
   }
-  return a.empty() ? 0.0 : double(bad) / double(a.size());
+  return cam;
 }
 
-// |a − b| / |b| over whole arrays.
-double relative_l2(const std::vector<float>& a, const std::vector<float>& b) {
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// Per pixel: whether any channel of a and b differ by more than
+// tol · max(floor, |b|).
+std::vector<char> differing_pixels(const std::vector<float>& a, const std::vector<float>& b, double tol, double floor) {
+  std::vector<char> out(a.size() / 3, 0);
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    const double d = std::abs(double(a[i]) - double(b[i]));
+    if (!(d <= tol * std::max(floor, std::abs(double(b[i]))))) out[i / 3] = 1;
+  }
+  return out;
+}
+
+double rms(const std::vector<float>& v) {
+  double s = 0;
+  for (float x : v) s += double(x) * x;
+  return std::sqrt(s / double(std::max<std::size_t>(v.size(), 1)));
+}
+
+// |a − b| / |b| over the pixels where `keep` is set (all when keep is empty).
+double relative_l2(const std::vector<float>& a, const std::vector<float>& b, const std::vector<char>& keep = {}) {
   double num = 0, den = 0;
   for (std::size_t i = 0; i < a.size(); ++i) {
+    if (!keep.empty() && !keep[i / 3]) continue;
     num += (double(a[i]) - b[i]) * (double(a[i]) - b[i]);
     den += double(b[i]) * b[i];
   }
   return std::sqrt(num / std::max(den, 1e-30));
 }
 
-int compare_scene(const char* name, const dt_test::Shape& shape) {
-  const dr::HostScene s = make_scene(shape);
-  const difftrans::accel::Bvh bvh(s.mesh.positions.data(), s.mesh.num_vertices(), s.mesh.triangles.data(),
-                                  s.mesh.num_triangles(), name);
-  const dc::DeviceScene ds(s, bvh);
-  const auto cam = difftrans::scene::look_at_camera(Vec3f(0.3f, 0.4f, 1.6f), Vec3f(0.0f), Vec3f(0, 1, 0), 0.9f, 64, 64);
-  dc::PassOptions opt;
-  opt.trace.max_depth = 4;
-  opt.samples_per_axis = 2;
+std::size_t count(const std::vector<char>& v) { return std::size_t(std::count(v.begin(), v.end(), char(1))); }
+
+struct Case {
+  const char* scene;
+  int size, depth, samples_per_axis;
+};
+
+struct Checker {
   int failures = 0;
-  const auto expect = [&](bool ok, const char* what, double a, double b) {
-    std::printf("  %-40s %-4s (%.3g, %.3g)\n", what, ok ? "ok" : "FAIL", a, b);
+  void expect(bool ok, const char* what, double a, double b) {
+    std::printf("  %-52s %-4s (%.4g, %.4g)\n", what, ok ? "ok" : "FAIL", a, b);
     failures += !ok;
-  };
-  std::printf("%s:\n", name);
+  }
+};
+
+// One direction's derivative image: host, host from the two moved eyes,
+// device. Marks unstable and mismatched pixels; checks the stable ones.
+void compare_derivative(const char* what, const dr::HostScene& s, const dc::DeviceScene& ds, const Case& c,
+                        const dr::TraceSettings& trace, const float* const direction[dr::param_count],
+                        std::vector<char>& excluded, Checker& check) {
+  const auto cam = camera(c.size, 0);
+  std::vector<float> hv, hd, hv1, hd1, hv2, hd2;
+  dt_test::host_render_derivative(s, cam, direction, trace, c.samples_per_axis, hv, hd);
+  dt_test::host_render_derivative(s, camera(c.size, 1), direction, trace, c.samples_per_axis, hv1, hd1);
+  dt_test::host_render_derivative(s, camera(c.size, 2), direction, trace, c.samples_per_axis, hv2, hd2);
+  dc::PassOptions opt;
+  opt.trace = trace;
+  opt.samples_per_axis = c.samples_per_axis;
+  dc::DevicePassStats st;
+  const dc::ImageDerivative dd = dc::render_derivative(ds, cam, direction, opt, &st);
+  const double scale = rms(hd);
+  const auto u1 = differing_pixels(hd1, hd, 1e-3, scale), u2 = differing_pixels(hd2, hd, 1e-3, scale);
+  const auto mismatch = differing_pixels(dd.derivative, hd, 1e-3, scale);
+  std::vector<char> stable(u1.size());
+  std::size_t unstable = 0, stable_mismatch = 0;
+  for (std::size_t p = 0; p < stable.size(); ++p) {
+    stable[p] = !(u1[p] || u2[p]);
+    unstable += !stable[p];
+    stable_mismatch += stable[p] && mismatch[p];
+    if (!stable[p] || mismatch[p]) excluded[p] = 1;
+  }
+  const double pixels = double(stable.size());
+  std::printf("  %s: %zu unstable pixels on the host (%.3f%%), %zu more differ on the device; all pixels: relative L2 %.3g;"
+              " %.3f ms, %.1f M segments/s\n",
+              what, unstable, 100.0 * double(unstable) / pixels, stable_mismatch, relative_l2(dd.derivative, hd),
+              st.milliseconds, double(st.segments) / st.milliseconds * 1e-3);
+  char label[96];
+  std::snprintf(label, sizeof label, "%s: stable pixels the device differs on", what);
+  check.expect(double(stable_mismatch) <= max_stable_mismatch * pixels, label, double(stable_mismatch),
+               max_stable_mismatch * pixels);
+  std::snprintf(label, sizeof label, "%s: relative L2 over stable pixels", what);
+  check.expect(relative_l2(dd.derivative, hd, stable) <= 1e-3, label, relative_l2(dd.derivative, hd, stable), 1e-3);
+}
+
+int compare_case(const Case& c) {
+  const dr::HostScene s = make_scene(c.scene);
+  const difftrans::accel::Bvh bvh(s.mesh.positions.data(), s.mesh.num_vertices(), s.mesh.triangles.data(),
+                                  s.mesh.num_triangles(), c.scene);
+  const dc::DeviceScene ds(s, bvh);
+  const auto cam = camera(c.size, 0);
+  dr::TraceSettings trace;
+  trace.max_depth = c.depth;
+  dc::PassOptions opt;
+  opt.trace = trace;
+  opt.samples_per_axis = c.samples_per_axis;
+  Checker check;
+  std::printf("%s %d² depth %d, %d spp:\n", c.scene, c.size, c.depth, c.samples_per_axis * c.samples_per_axis);
+  const std::size_t pixels = std::size_t(c.size) * std::size_t(c.size);
+  std::vector<char> excluded(pixels, 0);
 
   // image
+  auto t0 = std::chrono::steady_clock::now();
+  const std::vector<float> host = dt_test::host_render_image(s, cam, trace, c.samples_per_axis);
+  const double host_seconds = seconds_since(t0);
+  const std::vector<float> host1 = dt_test::host_render_image(s, camera(c.size, 1), trace, c.samples_per_axis);
+  const std::vector<float> host2 = dt_test::host_render_image(s, camera(c.size, 2), trace, c.samples_per_axis);
   dc::DevicePassStats dst;
   const std::vector<float> dev = dc::render_image(ds, cam, opt, &dst);
-  const std::vector<float> host = dt_test::host_render_image(s, cam, opt.trace, opt.samples_per_axis);
-  double max_diff = 0;
-  const double share = share_differing(dev, host, 1e-4, &max_diff);
-  expect(share <= 0.002, "image: share of values off by > 1e-4", share, max_diff);
-  expect(dst.hits > dst.rays / 10, "image: rays hit the object", double(dst.hits), double(dst.rays));
-  std::printf("  image: %llu rays, %llu segments in %.3f ms: %.1f M segments/s\n", (unsigned long long)dst.rays,
-              (unsigned long long)dst.segments, dst.milliseconds, double(dst.segments) / dst.milliseconds * 1e-3);
+  {
+    const auto u1 = differing_pixels(host1, host, 1e-4, 1.0), u2 = differing_pixels(host2, host, 1e-4, 1.0);
+    const auto mismatch = differing_pixels(dev, host, 1e-4, 1.0);
+    std::size_t unstable = 0, stable_mismatch = 0;
+    double max_stable_diff = 0;
+    for (std::size_t p = 0; p < pixels; ++p) {
+      const bool stable = !(u1[p] || u2[p]);
+      unstable += !stable;
+      stable_mismatch += stable && mismatch[p];
+      if (!stable || mismatch[p]) excluded[p] = 1;
+      if (stable)
+        for (int k = 0; k < 3; ++k)
+          max_stable_diff = std::max(max_stable_diff, std::abs(double(dev[3 * p + k]) - host[3 * p + k]));
+    }
+    std::printf("  image: %zu unstable pixels on the host, %zu stable ones differ on the device (largest %.3g);"
+                " device %.3f ms (%.1f M segments/s), host %.3f s\n",
+                unstable, stable_mismatch, max_stable_diff, dst.milliseconds,
+                double(dst.segments) / dst.milliseconds * 1e-3, host_seconds);
+    check.expect(double(stable_mismatch) <= max_stable_mismatch * double(pixels), "image: stable pixels that differ",
+                 double(stable_mismatch), max_stable_mismatch * double(pixels));
+    check.expect(dst.hits > dst.rays / 10, "image: rays hit the object", double(dst.hits), double(dst.rays));
+  }
 
-  // derivative along the IoR
+  // derivatives: along the IoR, and along a random direction in the
+  // positions and the absorption
   const float one = 1.0f;
-  const float* direction[dr::param_count] = {nullptr, &one, nullptr, nullptr};
-  const dc::ImageDerivative dd = dc::render_derivative(ds, cam, direction, opt);
-  dc::ImageDerivative hd;
-  dt_test::host_render_derivative(s, cam, direction, opt.trace, opt.samples_per_axis, hd.value, hd.derivative);
-  const double share_v = share_differing(dd.value, hd.value, 1e-4, &max_diff);
-  expect(share_v <= 0.002, "Dual: value share off by > 1e-4", share_v, max_diff);
-  const double rel_d = relative_l2(dd.derivative, hd.derivative);
-  expect(rel_d <= 1e-3, "Dual: relative L2 of d/dIoR", rel_d, 0.0);
+  const float* ior_only[dr::param_count] = {nullptr, &one, nullptr, nullptr};
+  compare_derivative("d/dIoR", s, ds, c, trace, ior_only, excluded, check);
+  std::mt19937 rng(7);
+  std::normal_distribution<float> normal;
+  std::vector<float> dir_pos(s.mesh.positions.size()), dir_abs(s.absorption_raw.size());
+  for (float& x : dir_pos) x = 0.05f * normal(rng);
+  for (float& x : dir_abs) x = normal(rng);
+  const float* mixed[dr::param_count] = {dir_pos.data(), nullptr, dir_abs.data(), nullptr};
+  compare_derivative("d/d(positions, absorption)", s, ds, c, trace, mixed, excluded, check);
 
-  // gradient of sum(adjoint · image)
-  std::vector<float> adjoint(dev.size());
-  for (std::size_t i = 0; i < adjoint.size(); ++i) adjoint[i] = 0.5f + 0.5f * std::sin(0.37f * float(i));
+  // gradient of sum(adjoint · image) with the adjoint zero on excluded pixels
+  std::vector<float> adjoint(host.size());
+  for (std::size_t i = 0; i < adjoint.size(); ++i)
+    adjoint[i] = excluded[i / 3] ? 0.0f : 0.5f + 0.5f * std::sin(0.37f * float(i));
   dr::SceneGradient dg(s), hg(s);
   dc::DevicePassStats gst;
   dc::render_gradient(ds, cam, adjoint.data(), dg, opt, &gst);
-  const int host_max_tape =
-      dt_test::host_render_gradient(s, cam, adjoint.data(), hg, opt.trace, opt.samples_per_axis);
-  std::printf("  gradient: %llu of %llu rays overflowed the device tape (max %u nodes; host max %d)\n",
+  t0 = std::chrono::steady_clock::now();
+  const int host_max_tape = dt_test::host_render_gradient(s, cam, adjoint.data(), hg, trace, c.samples_per_axis);
+  const double host_gradient_seconds = seconds_since(t0);
+  std::printf("  gradient: %zu pixels excluded (%.3f%%); %llu of %llu rays overflowed the device tape (largest %u"
+              " nodes; host %d); device %.3f ms (%.1f M segments/s), host %.3f s\n",
+              count(excluded), 100.0 * double(count(excluded)) / double(pixels),
               (unsigned long long)gst.overflowed_rays, (unsigned long long)gst.rays, gst.max_tape_nodes,
-              host_max_tape);
-  expect(gst.overflowed_rays == 0, "Var: no tape overflow", double(gst.overflowed_rays), 0.0);
-  expect(std::abs(dg.ior[0] - hg.ior[0]) <= 1e-3 * std::abs(hg.ior[0]) + 1e-4, "Var: dL/dIoR", dg.ior[0], hg.ior[0]);
-  const double rel_p = relative_l2(dg.positions, hg.positions);
-  expect(rel_p <= 2e-3, "Var: relative L2 of dL/dpositions", rel_p, 0.0);
-  const double rel_a = relative_l2(dg.absorption, hg.absorption);
-  expect(rel_a <= 2e-3, "Var: relative L2 of dL/dabsorption", rel_a, 0.0);
-  const double rel_e = relative_l2(dg.environment, hg.environment);
-  expect(rel_e <= 2e-3, "Var: relative L2 of dL/denvironment", rel_e, 0.0);
-  return failures;
+              host_max_tape, gst.milliseconds, double(gst.segments) / gst.milliseconds * 1e-3, host_gradient_seconds);
+  check.expect(gst.overflowed_rays == 0, "Var: no ray lost its gradient to a full tape", double(gst.overflowed_rays),
+               0.0);
+  check.expect(std::abs(dg.ior[0] - hg.ior[0]) <= 1e-3 * std::abs(hg.ior[0]) + 1e-4, "Var: dL/dIoR", dg.ior[0],
+               hg.ior[0]);
+  check.expect(relative_l2(dg.positions, hg.positions) <= 1e-3, "Var: relative L2 of dL/dpositions",
+               relative_l2(dg.positions, hg.positions), 1e-3);
+  check.expect(relative_l2(dg.absorption, hg.absorption) <= 1e-3, "Var: relative L2 of dL/dabsorption",
+               relative_l2(dg.absorption, hg.absorption), 1e-3);
+  check.expect(relative_l2(dg.environment, hg.environment) <= 1e-3, "Var: relative L2 of dL/denvironment",
+               relative_l2(dg.environment, hg.environment), 1e-3);
+  return check.failures;
 }
 
 // Tapes in each thread's local memory (GradientPixel<4096>) against tapes
 // cut from a pool: a homogeneous-absorption sphere at depth 4, whose rays
-// record fewer than 4096 nodes (checked on the host in tests/accel/bvh.test.cpp).
+// record fewer than 4096 nodes (checked on the host in tests/cuda/render_kernels.test.cpp).
 int compare_local_tapes() {
-  dr::HostScene s = make_scene(dt_test::make_icosphere(0.5f, 3));
+  dr::HostScene s = make_scene("sphere");
   s.set_homogeneous_absorption(Vec3f(0.3f, 0.6f, 1.2f));
   const difftrans::accel::Bvh bvh(s.mesh.positions.data(), s.mesh.num_vertices(), s.mesh.triangles.data(),
                                   s.mesh.num_triangles(), "sphere");
   const dc::DeviceScene ds(s, bvh);
-  const auto cam = difftrans::scene::look_at_camera(Vec3f(0.3f, 0.4f, 1.6f), Vec3f(0.0f), Vec3f(0, 1, 0), 0.9f, 64, 64);
+  const auto cam = camera(64, 0);
   dc::PassOptions opt;
   opt.trace.max_depth = 4;
   std::vector<float> adjoint(std::size_t(cam.width) * cam.height * 3);
   for (std::size_t i = 0; i < adjoint.size(); ++i) adjoint[i] = 0.5f + 0.5f * std::cos(0.21f * float(i));
-  dr::SceneGradient local(s), pooled(s), host(s);
+  dr::SceneGradient local(s), pooled(s);
   dc::DevicePassStats ls, ps;
   dc::render_gradient<4096, 512>(ds, cam, adjoint.data(), local, opt, &ls);
   dc::render_gradient(ds, cam, adjoint.data(), pooled, opt, &ps);
-  dt_test::host_render_gradient(s, cam, adjoint.data(), host, opt.trace, opt.samples_per_axis);
+  // the same kernel body on the same device: only the order of the atomic adds differs
   const double rel_lp = relative_l2(local.positions, pooled.positions);
-  const double rel_lh = relative_l2(local.positions, host.positions);
-  const bool ok = ls.overflowed_rays == 0 && ps.overflowed_rays == 0 && rel_lp <= 1e-5 && rel_lh <= 2e-3 &&
-                  std::abs(local.ior[0] - host.ior[0]) <= 1e-3 * std::abs(host.ior[0]) + 1e-4;
-  std::printf("local tapes: %.3f ms (pooled %.3f ms), overflow %llu/%llu, |local-pooled| %.3g, |local-host| %.3g: %s\n",
-              ls.milliseconds, ps.milliseconds, (unsigned long long)ls.overflowed_rays,
-              (unsigned long long)ps.overflowed_rays, rel_lp, rel_lh, ok ? "ok" : "FAIL");
+  const bool ok = ls.overflowed_rays == 0 && ps.overflowed_rays == 0 && rel_lp <= 1e-5 &&
+                  std::abs(local.ior[0] - pooled.ior[0]) <= 1e-5 * std::abs(pooled.ior[0]);
+  std::printf("local tapes: %.3f ms (pooled %.3f ms), overflow %llu/%llu, |local-pooled| %.3g: %s\n", ls.milliseconds,
+              ps.milliseconds, (unsigned long long)ls.overflowed_rays, (unsigned long long)ps.overflowed_rays, rel_lp,
+              ok ? "ok" : "FAIL");
   return ok ? 0 : 1;
 }
 
 }  // namespace
 
-int main() {
+int main(int argc, char** argv) {
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);  // each line as it comes, when written to a file
   if (dc::device_count() == 0) {
     std::printf("no CUDA device: device test skipped (the same kernels are tested on the host)\n");
     return 77;
   }
-  int failures = compare_scene("sphere", dt_test::make_icosphere(0.5f, 3));
-  failures += compare_scene(
-      "spot", dt_test::load_normalized_mesh(std::string(DIFFTRANS_DATA_DIR) + "/meshes/spot.obj"));
+  const bool quick = argc > 1 && std::strcmp(argv[1], "quick") == 0;
+  const Case cases[] = {
+      {"sphere", 64, 4, 2}, {"spot", 64, 4, 2},     {"spot", 512, 16, 2},
+      {"sphere", 512, 8, 1}, {"spot", 1024, 4, 1},  {"bunny", 1024, 16, 2},
+  };
+  int failures = 0;
+  for (const Case& c : cases) {
+    if (quick && c.size > 64) continue;
+    failures += compare_case(c);
+  }
   failures += compare_local_tapes();
   std::printf("%s\n", failures == 0 ? "all device results agree with the host" : "device results differ");
   return failures == 0 ? 0 : 1;

@@ -14,7 +14,8 @@
 #include <vector>
 
 #include "difftrans/geometry/procedural.hpp"
-#include "difftrans/render/hard_cases.hpp"
+#include "difftrans/geometry/procedural.hpp"
+#include "difftrans/scene/envmap.hpp"
 
 namespace dt_test {
 
@@ -60,8 +61,8 @@ inline Shape make_torus(int n, int m, float R = 1.0f, float r = 0.35f) {
 
 // A smooth, varied w x h equirectangular environment (RGB texels) for tests
 // whose gradients should see the look-up direction (the library's
-// render::varied_sky).
-inline std::vector<float> smooth_sky(int w, int h) { return difftrans::render::varied_sky(w, h); }
+// scene::varied_sky).
+inline std::vector<float> smooth_sky(int w, int h) { return difftrans::scene::varied_sky(w, h); }
 
 // The triangles of a data/ mesh ("v x y z", "f a b c", also a/b/c
 // tokens), normalized as docs/conventions.md says: box centre at the origin, longest

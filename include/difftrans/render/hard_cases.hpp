@@ -21,22 +21,9 @@
 #include "difftrans/geometry/procedural.hpp"
 #include "difftrans/render/host_scene.hpp"
 #include "difftrans/render/tracer.hpp"
+#include "difftrans/scene/envmap.hpp"
 
 namespace difftrans::render {
-
-// A smooth, varied w × h equirectangular environment (RGB texels): every
-// direction sees another colour, so gradients with respect to the look-up
-// direction are not zero.
-inline std::vector<float> varied_sky(int w, int h) {
-  std::vector<float> t;
-  t.reserve(std::size_t(w) * std::size_t(h) * 3);
-  for (int row = 0; row < h; ++row)
-    for (int col = 0; col < w; ++col) {
-      const float u = (float(col) + 0.5f) / float(w), v = (float(row) + 0.5f) / float(h);
-      t.insert(t.end(), {0.6f + 0.4f * std::sin(6.2831853f * u), 0.5f + 0.4f * std::cos(3.14159f * v), 0.3f + 0.6f * u * v});
-    }
-  return t;
-}
 
 struct HardCaseRay {
   Vec3f origin, direction;
@@ -124,7 +111,7 @@ inline HardCaseResult check_hard_case(const HardCase& hc, const TraceSettings& s
   r.rays = int(hc.rays.size());
   HostScene s(hc.positions, hc.triangles, hc.name);
   s.ior = hc.ior;
-  s.set_environment_map(varied_sky(24, 12), 24, 12);
+  s.set_environment_map(scene::varied_sky(24, 12), 24, 12);
   if (hc.sigma != 0.0f) s.set_homogeneous_absorption(Vec3f(hc.sigma));
   {
     const ad::ParamSet params = s.params();

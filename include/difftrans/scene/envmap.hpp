@@ -2,7 +2,10 @@
 // differentiable in texels and direction). The one home of the uv convention.
 #pragma once
 
+#include <cmath>
+#include <cstddef>
 #include <cstdint>
+#include <vector>
 
 #include "difftrans/ad/glm.hpp"
 #include "difftrans/core/constants.hpp"
@@ -164,6 +167,20 @@ template <class S, class Reader>
 DT_HOST_DEVICE Vec3<S> lookup(Reader& reader, const EnvMap& env, const Vec3<S>& d) {
   if (env.kind == EnvironmentKind::constant) return ad::load3<S>(reader, env.texels, 0);
   return lookup_uv(reader, env, direction_to_uv(d));
+}
+
+// A smooth, varied w × h equirectangular environment (RGB texels): every
+// direction sees another colour, so gradients with respect to the look-up
+// direction are not zero.
+inline std::vector<float> varied_sky(int w, int h) {
+  std::vector<float> t;
+  t.reserve(std::size_t(w) * std::size_t(h) * 3);
+  for (int row = 0; row < h; ++row)
+    for (int col = 0; col < w; ++col) {
+      const float u = (float(col) + 0.5f) / float(w), v = (float(row) + 0.5f) / float(h);
+      t.insert(t.end(), {0.6f + 0.4f * std::sin(6.2831853f * u), 0.5f + 0.4f * std::cos(3.14159f * v), 0.3f + 0.6f * u * v});
+    }
+  return t;
 }
 
 }  // namespace difftrans::scene
