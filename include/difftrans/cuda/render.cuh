@@ -119,13 +119,12 @@ class DeviceScene {
   std::int32_t node_count_ = 0, triangle_count_ = 0;
 };
 
-// As render::PassOptions, for the device passes.
+// As render::PassOptions, for the device passes. schedule.tape_memory = 0:
+// half of the device memory free when the pass starts.
 struct PassOptions {
   render::TraceSettings trace;
-  int samples_per_axis = 1;                  // n: n² sub-pixel samples at the centres of an n×n grid
-  std::int32_t tape_capacity = 1 << 14;      // reverse mode: nodes per ray (a TapePool slot)
-  std::int32_t leaf_log_capacity = 1 << 11;  // reverse mode: parameter leaves per ray
-  std::size_t tape_memory = std::size_t(1) << 31;  // reverse mode: bytes of tapes; pixels run in waves that fit
+  int samples_per_axis = 1;  // n: n² sub-pixel samples at the centres of an n×n grid
+  GradientSchedule schedule = {1 << 12, 1 << 10, 1 << 21, 0};  // reverse mode: tapes, waves, redo
 };
 
 // The image (value) and its derivative along a direction, as render::ImageDerivative.
@@ -133,11 +132,59 @@ struct ImageDerivative {
   std::vector<float> value, derivative;
 };
 
-// What a device pass reports (summed over pixels).
+// What a device pass reports (summed over pixels and, for the gradient,
+// over its tries: segments and hits count the redone pixels again).
 struct DevicePassStats {
-  std::uint64_t rays = 0, segments = 0, hits = 0, overflowed_rays = 0;
+  std::uint64_t rays = 0, segments = 0, hits = 0;
+  std::uint64_t overflowed_rays = 0;  // Var: rays that overflowed a tape on some try
   std::uint32_t max_tape_nodes = 0;
-  double milliseconds = 0;  // kernel time (CUDA events)
+  GradientWaves waves;                // Var: the schedule run_gradient_waves followed
+  double milliseconds = 0;            // kernel time (CUDA events)
+};
+
+// The device launch backend of run_gradient_waves: buffers in device memory,
+// synchronous launches timed with CUDA events, the pass's counters.
+class DeviceLaunch {
+ public:
+  DeviceLaunch() : counters_(counter_count) {
+    const std::uint32_t zero[counter_count] = {};
+    counters_.upload(zero);
+  }
+  template <class T>
+  DeviceBuffer<T> make(std::size_t n) {
+    return DeviceBuffer<T>(n);
+  }
+  template <class K>
+  void launch(int n, const K& kernel, int block = 64) {
+    cudaEvent_t start, stop;
+    check(cudaEventCreate(&start), "cudaEventCreate");
+    check(cudaEventCreate(&stop), "cudaEventCreate");
+    check(cudaEventRecord(start), "cudaEventRecord");
+    cuda::launch(n, kernel, block);
+    check(cudaEventRecord(stop), "cudaEventRecord");
+    check(cudaEventSynchronize(stop), "kernel");
+    float ms = 0;
+    check(cudaEventElapsedTime(&ms, start, stop), "cudaEventElapsedTime");
+    milliseconds += ms;
+    cudaEventDestroy(start);
+    cudaEventDestroy(stop);
+  }
+  std::uint32_t* counters() { return counters_.data(); }
+  void read_counters(std::uint32_t* c) const { counters_.download(c); }
+  void set_counter(int i, std::uint32_t v) {
+    check(cudaMemcpy(counters_.data() + i, &v, sizeof v, cudaMemcpyHostToDevice), "set counter");
+  }
+  // Half of the device memory free now.
+  static std::size_t half_free_memory() {
+    std::size_t free = 0, total = 0;
+    check(cudaMemGetInfo(&free, &total), "cudaMemGetInfo");
+    return free / 2;
+  }
+
+  double milliseconds = 0;
+
+ private:
+  DeviceBuffer<std::uint32_t> counters_;
 };
 
 namespace detail {
@@ -182,7 +229,7 @@ inline PixelJob make_job(const DeviceScene& ds, bool ad, bool reverse, const sce
   job.params = d_params;
   job.samples_per_axis = opt.samples_per_axis;
   job.image = image.data();
-  std::uint32_t zero[counter_count] = {0, 0, 0, 0};
+  const std::uint32_t zero[counter_count] = {};
   counters.upload(zero);
   job.counters = counters.data();
   return job;
@@ -236,12 +283,14 @@ inline ImageDerivative render_derivative(const DeviceScene& ds, const scene::Cam
 
 // Adds to `grad` dLoss/dparameter given dLoss/dpixel (host, width·height·3),
 // as render::render_gradient. Returns the image. Tapes: LocalTapeCapacity = 0
-// (default) cuts them from one device buffer (opt.tape_capacity nodes per
-// ray; pixels run in waves of as many threads as opt.tape_memory holds);
-// otherwise each thread keeps a tape of LocalTapeCapacity nodes in its local
-// memory (GradientPixel). The trace is streamed (render::trace_streamed): a
-// tape holds one path and the pending branches, not the tree. Rays that
-// overflow lose part of their gradient and are counted in stats.
+// (default) cuts them from device buffers, scheduled by run_gradient_waves
+// (waves of as many threads as opt.schedule.tape_memory holds; pixels whose
+// tape overflowed are redone on longer tapes; stats->waves.dropped_pixels
+// says how many still lost part of their gradient); otherwise each thread
+// keeps a tape of LocalTapeCapacity nodes in its local memory (GradientPixel),
+// and a ray that overflows it loses part of its gradient (counted in
+// stats->overflowed_rays). The trace is streamed (render::trace_streamed): a
+// tape holds one path and the pending branches, not the tree.
 template <int LocalTapeCapacity = 0, int LocalLogCapacity = 512>
 std::vector<float> render_gradient(const DeviceScene& ds, const scene::Camera& cam, const float* pixel_adjoint,
                                    render::SceneGradient& grad, const PassOptions& opt = {},
@@ -249,7 +298,7 @@ std::vector<float> render_gradient(const DeviceScene& ds, const scene::Camera& c
   const int pixels = cam.width * cam.height;
   const std::size_t n = std::size_t(pixels) * 3;
   DeviceBuffer<float> image(n);
-  DeviceBuffer<std::uint32_t> counters(counter_count);
+  DeviceLaunch be;
   auto adjoint = detail::upload_array(pixel_adjoint, n);
   std::vector<float>* host_grads[render::param_count] = {};
   host_grads[render::param_positions] = &grad.positions;
@@ -268,48 +317,37 @@ std::vector<float> render_gradient(const DeviceScene& ds, const scene::Camera& c
   params.upload(&set);
   // two-level normals (HostScene::view(true, true)): the normals' gradient is
   // folded into the positions on the host afterwards
-  PixelJob job = detail::make_job(ds, true, true, cam, opt, params.data(), image, counters);
+  PixelJob job;
+  job.scene = ds.view(true, true);
+  job.bvh = ds.bvh();
+  job.camera = cam;
+  job.trace = opt.trace;
+  job.params = params.data();
+  job.samples_per_axis = opt.samples_per_axis;
+  job.image = image.data();
   job.pixel_adjoint = adjoint->data();
+  job.counters = be.counters();
+  GradientWaves waves;
   if constexpr (LocalTapeCapacity > 0) {
-    detail::run_pixels(GradientPixel<LocalTapeCapacity, LocalLogCapacity>{job}, cam, opt.samples_per_axis,
-                       counters, stats, 64);
+    be.launch(pixels, GradientPixel<LocalTapeCapacity, LocalLogCapacity>{job});
+    waves.waves = 1;
+    waves.slots = pixels;
+    waves.final_capacity = LocalTapeCapacity;
   } else {
-    const std::int32_t cap = opt.tape_capacity < 16 ? 16 : opt.tape_capacity;
-    const std::int32_t log_cap = opt.leaf_log_capacity < 16 ? 16 : opt.leaf_log_capacity;
-    const std::size_t per_slot = std::size_t(cap) * ad::Tape<float>::bytes_per_node +
-                                 std::size_t(log_cap) * sizeof(ad::LeafRecord);
-    std::size_t slots = opt.tape_memory / per_slot;
-    slots = slots < 64 ? 64 : (slots > std::size_t(pixels) ? std::size_t(pixels) : slots);
-    DeviceBuffer<ad::Node<float>> nodes(slots * std::size_t(cap));
-    DeviceBuffer<float> adjoints(slots * std::size_t(cap));
-    DeviceBuffer<ad::LeafRecord> logs(slots * std::size_t(log_cap));
-    PooledGradientPixel k{job, TapePool{nodes.data(), adjoints.data(), logs.data(), cap, log_cap}, 0, pixels};
-    double ms = 0;
-    for (int first = 0; first < pixels; first += int(slots)) {
-      k.first_pixel = first;
-      cudaEvent_t start, stop;
-      check(cudaEventCreate(&start), "cudaEventCreate");
-      check(cudaEventCreate(&stop), "cudaEventCreate");
-      check(cudaEventRecord(start), "cudaEventRecord");
-      launch(int(slots), k, 64);
-      check(cudaEventRecord(stop), "cudaEventRecord");
-      check(cudaEventSynchronize(stop), "kernel");
-      float wave_ms = 0;
-      check(cudaEventElapsedTime(&wave_ms, start, stop), "cudaEventElapsedTime");
-      ms += wave_ms;
-      cudaEventDestroy(start);
-      cudaEventDestroy(stop);
-    }
-    if (stats) {
-      std::uint32_t c[counter_count];
-      counters.download(c);
-      stats->rays = std::uint64_t(pixels) * std::uint64_t(opt.samples_per_axis) * std::uint64_t(opt.samples_per_axis);
-      stats->segments = c[counter_segments];
-      stats->hits = c[counter_hits];
-      stats->overflowed_rays = c[counter_overflow];
-      stats->max_tape_nodes = c[counter_max_tape];
-      stats->milliseconds = ms;
-    }
+    GradientSchedule schedule = opt.schedule;
+    if (schedule.tape_memory == 0) schedule.tape_memory = DeviceLaunch::half_free_memory();
+    waves = run_gradient_waves(be, job, pixels, schedule);
+  }
+  if (stats) {
+    std::uint32_t c[counter_count];
+    be.read_counters(c);
+    stats->rays = std::uint64_t(pixels) * std::uint64_t(opt.samples_per_axis) * std::uint64_t(opt.samples_per_axis);
+    stats->segments = c[counter_segments];
+    stats->hits = c[counter_hits];
+    stats->overflowed_rays = c[counter_overflow];
+    stats->max_tape_nodes = c[counter_max_tape];
+    stats->waves = waves;
+    stats->milliseconds = be.milliseconds;
   }
   for (int b = 0; b < render::param_count; ++b) {
     std::vector<float> g(host_grads[b]->size());

@@ -1,10 +1,16 @@
 // The tracer's per-pixel kernels, written once over an index and run by a
-// CUDA launch (cuda/render.cuh) or a plain host loop: a float render, a
-// Dual<float, 1> directional derivative and a Var<float> gradient with a
-// per-thread tape of fixed capacity. They read one plain parameter struct,
-// PixelJob, whose pointers are device or host pointers alike.
+// CUDA launch (cuda/render.cuh) or host threads (cuda/host_launch.hpp): a
+// float render, a Dual<float, 1> directional derivative and a Var<float>
+// gradient with a per-thread tape of fixed capacity. They read one plain
+// parameter struct, PixelJob, whose pointers are device or host pointers
+// alike. run_gradient_waves, the reverse pass's schedule (waves of tapes
+// that fit the memory, overflowed pixels redone on longer tapes), is written
+// once over a launch backend as well, so that its host twin runs in every
+// test run.
 #pragma once
 
+#include <algorithm>
+#include <cstddef>
 #include <cstdint>
 
 #include "difftrans/accel/bvh.hpp"
@@ -35,7 +41,8 @@ enum PixelCounter : int {
   counter_hits = 1,      // surface interactions
   counter_overflow = 2,  // Var: rays whose tape or leaf log overflowed (part of their gradient lost)
   counter_max_tape = 3,  // Var: largest tape (nodes) of any ray (its peak in the streamed trace)
-  counter_count = 4,
+  counter_overflow_pixels = 4,  // Var: entries written to PooledGradientPixel::overflow_list
+  counter_count = 5,
 };
 
 namespace detail {
@@ -116,24 +123,33 @@ namespace detail {
 // adjoint, which scatters the leaves' adjoints into the gradient buffers
 // (atomic adds) as the tree is traced, on a tape bounded by the depth. A ray
 // whose tape or log overflows has lost part of its gradient and is counted.
-// Writes the image if asked.
-DT_HOST_DEVICE inline void gradient_pixel(const PixelJob& job, int pix, ad::Tape<float>& tape,
-                                          ad::LeafRecord* log, std::int32_t log_capacity) {
+// Writes the image if asked. adjoint_scale multiplies dLoss/dpixel: −1
+// takes back exactly what a run with +1 and the same tape capacity added.
+// Returns whether any of the pixel's rays overflowed.
+DT_HOST_DEVICE inline bool gradient_pixel(const PixelJob& job, int pix, ad::Tape<float>& tape,
+                                          ad::LeafRecord* log, std::int32_t log_capacity,
+                                          float adjoint_scale = 1.0f) {
   using V = ad::Var<float>;
   ad::ParamReader<V> reader(job.params, &tape, log, log_capacity);
   render::TraceStats st;
   float value[3] = {0.0f, 0.0f, 0.0f};
+  bool overflowed = false;
   const float* a = job.pixel_adjoint + 3 * std::int64_t(pix);
   for_each_pixel_sample(job.camera, job.samples_per_axis, pix, [&](const Vec3f& o, const Vec3f& d, float w) {
-    const Vec3f adjoint(w * a[0], w * a[1], w * a[2]);
+    const float ws = w * adjoint_scale;
+    const Vec3f adjoint(ws * a[0], ws * a[1], ws * a[2]);
     const Vec3f L = render::trace_streamed<float>(job.scene, job.bvh, reader, o, d, adjoint, job.trace, &st);
     for (int c = 0; c < 3; ++c) value[c] += w * L[c];
     if (job.counters) counter_max(job.counters + counter_max_tape, std::uint32_t(tape.peak()));
-    if ((tape.overflowed() || reader.overflowed()) && job.counters) counter_add(job.counters + counter_overflow, 1u);
+    if (tape.overflowed() || reader.overflowed()) {
+      overflowed = true;
+      if (job.counters) counter_add(job.counters + counter_overflow, 1u);
+    }
   });
   if (job.image)
     for (int c = 0; c < 3; ++c) job.image[3 * std::int64_t(pix) + c] = value[c];
   add_counts(job, st);
+  return overflowed;
 }
 
 }  // namespace detail
@@ -159,29 +175,141 @@ struct GradientPixel {
 
 // Per-thread tapes cut from one caller-owned buffer: slot s uses nodes
 // [s·capacity, (s+1)·capacity), the same range of adjoints and log entries
-// [s·log_capacity, ...). A launch over `slots` threads handles pixels
-// [first_pixel, first_pixel + slots).
+// [s·log_capacity, ...).
 struct TapePool {
   ad::Node<float>* nodes = nullptr;
   float* adjoints = nullptr;
   ad::LeafRecord* logs = nullptr;
   std::int32_t capacity = 0, log_capacity = 0;
+
+  static constexpr std::size_t bytes_per_slot(std::int32_t capacity, std::int32_t log_capacity) {
+    return std::size_t(capacity) * ad::Tape<float>::bytes_per_node + std::size_t(log_capacity) * sizeof(ad::LeafRecord);
+  }
 };
 
-// Reverse mode with tapes of run-time capacity from a TapePool.
+// Reverse mode with tapes of run-time capacity from a TapePool. A launch
+// over `slots` threads handles items [first, first + slots) of
+// [0, item_count): pixel = item, or pixel_list[item] when a list is given.
+// A pixel whose rays overflowed is appended to overflow_list (counted in
+// job.counters[counter_overflow_pixels]) when that list is given.
 struct PooledGradientPixel {
   PixelJob job;
   TapePool pool;
-  int first_pixel = 0;
-  int pixel_count = 0;
+  std::int64_t first = 0;
+  std::int64_t item_count = 0;
+  const std::int32_t* pixel_list = nullptr;
+  float adjoint_scale = 1.0f;
+  std::int32_t* overflow_list = nullptr;
 
   DT_HOST_DEVICE void operator()(int slot) const {
-    const int pix = first_pixel + slot;
-    if (pix >= pixel_count) return;
+    const std::int64_t item = first + slot;
+    if (item >= item_count) return;
+    const int pix = pixel_list ? pixel_list[item] : int(item);
     const std::int64_t s = slot;
     ad::Tape<float> tape(pool.nodes + s * pool.capacity, pool.adjoints + s * pool.capacity, pool.capacity);
-    detail::gradient_pixel(job, pix, tape, pool.logs + s * pool.log_capacity, pool.log_capacity);
+    const bool overflowed =
+        detail::gradient_pixel(job, pix, tape, pool.logs + s * pool.log_capacity, pool.log_capacity, adjoint_scale);
+    if (overflowed && overflow_list) {
+#if DT_DEVICE_PASS
+      const std::uint32_t k = atomicAdd(job.counters + counter_overflow_pixels, 1u);
+#else
+      const std::uint32_t k = __atomic_fetch_add(job.counters + counter_overflow_pixels, 1u, __ATOMIC_RELAXED);
+#endif
+      overflow_list[k] = pix;
+    }
   }
 };
+
+// How a reverse pass is scheduled (run_gradient_waves).
+struct GradientSchedule {
+  std::int32_t tape_capacity = 1 << 12;      // nodes per ray on the first try
+  std::int32_t leaf_log_capacity = 1 << 10;  // parameter leaves per ray on the first try
+  std::int32_t max_tape_capacity = 1 << 21;  // the longest tape an overflowed pixel is redone with
+  std::size_t tape_memory = std::size_t(1) << 30;  // bytes of tapes at once: pixels run in waves that fit
+};
+
+// What run_gradient_waves did.
+struct GradientWaves {
+  int waves = 0;              // launches, all tries together
+  std::int64_t slots = 0;     // threads of the first try's waves
+  std::int64_t redone_pixels = 0;   // pixels redone on a longer tape (each try counted)
+  std::int64_t dropped_pixels = 0;  // pixels that overflowed even the longest tape: gradient partial
+  std::int32_t final_capacity = 0;  // the longest tape used
+};
+
+// Threads per wave: as many tapes of `bytes_per_slot` as `memory` holds,
+// at least 64 (or `items`, if fewer) and at most `items`.
+inline std::int64_t wave_slots(std::int64_t items, std::size_t bytes_per_slot, std::size_t memory) {
+  std::int64_t slots = std::int64_t(memory / std::max<std::size_t>(bytes_per_slot, 1));
+  slots = std::max<std::int64_t>(slots, 64);
+  return std::max<std::int64_t>(std::min(slots, items), 0);
+}
+
+// The reverse pass over `pixels` pixels, written once over a launch backend B
+// (device: cuda/render.cuh; host threads: cuda/host_launch.hpp), which offers
+//   be.template make<T>(n)   an owning array of n elements (contents unset)
+//                            in its memory, with data();
+//   be.launch(n, kernel)     kernel(i) for i in [0, n), then waits;
+//   be.read_counters(c)      copies the counter_count counters of job.counters;
+//   be.set_counter(i, v)     sets one of them.
+// job.counters must point at the backend's counters.
+// First every pixel in waves of tapes of schedule.tape_capacity nodes. A
+// pixel whose rays overflowed has scattered part of its gradient; it is run
+// again on the same tape with dLoss/dpixel negated, which takes exactly that
+// part back, then on a tape 8 times longer, until none overflows or the
+// longest tape is reached (those are dropped_pixels).
+template <class B>
+GradientWaves run_gradient_waves(B& be, PixelJob job, std::int64_t pixels, const GradientSchedule& schedule) {
+  GradientWaves out;
+  std::int32_t cap = std::max<std::int32_t>(schedule.tape_capacity, 16);
+  std::int32_t log_cap = std::max<std::int32_t>(schedule.leaf_log_capacity, 16);
+  auto list_a = be.template make<std::int32_t>(std::size_t(std::max<std::int64_t>(pixels, 1)));
+  auto list_b = be.template make<std::int32_t>(std::size_t(std::max<std::int64_t>(pixels, 1)));
+  std::int32_t* lists[2] = {list_a.data(), list_b.data()};
+  const auto overflow_count = [&]() {
+    std::uint32_t c[counter_count];
+    be.read_counters(c);
+    return std::int64_t(c[counter_overflow_pixels]);
+  };
+  const auto reset_overflow_count = [&]() { be.set_counter(counter_overflow_pixels, 0u); };
+  // one try: items of `list` (all pixels when null) on tapes of cap / log_cap
+  const auto run = [&](const std::int32_t* list, std::int64_t items, float scale, std::int32_t* overflow_list,
+                       bool write_image) {
+    const std::int64_t slots = wave_slots(items, TapePool::bytes_per_slot(cap, log_cap), schedule.tape_memory);
+    if (slots == 0) return std::int64_t(0);
+    auto nodes = be.template make<ad::Node<float>>(std::size_t(slots) * std::size_t(cap));
+    auto adjoints = be.template make<float>(std::size_t(slots) * std::size_t(cap));
+    auto logs = be.template make<ad::LeafRecord>(std::size_t(slots) * std::size_t(log_cap));
+    PooledGradientPixel k{job, TapePool{nodes.data(), adjoints.data(), logs.data(), cap, log_cap}, 0, items, list,
+                          scale, overflow_list};
+    if (!write_image) k.job.image = nullptr;
+    for (std::int64_t first = 0; first < items; first += slots) {
+      k.first = first;
+      be.launch(int(std::min(slots, items - first)), k);
+      ++out.waves;
+    }
+    return slots;
+  };
+  reset_overflow_count();
+  out.slots = run(nullptr, pixels, 1.0f, lists[0], true);
+  std::int64_t over = overflow_count();
+  int cur = 0;
+  while (over > 0) {
+    if (cap >= schedule.max_tape_capacity) {
+      out.dropped_pixels = over;
+      break;
+    }
+    out.redone_pixels += over;
+    run(lists[cur], over, -1.0f, nullptr, false);  // take back the partial gradient
+    cap = std::int32_t(std::min<std::int64_t>(std::int64_t(cap) * 8, schedule.max_tape_capacity));
+    log_cap = std::int32_t(std::min<std::int64_t>(std::int64_t(log_cap) * 8, schedule.max_tape_capacity));
+    reset_overflow_count();
+    run(lists[cur], over, 1.0f, lists[1 - cur], false);
+    over = overflow_count();
+    cur = 1 - cur;
+  }
+  out.final_capacity = cap;
+  return out;
+}
 
 }  // namespace difftrans::cuda

@@ -1,0 +1,82 @@
+// The host twin of the device passes: the kernels of cuda/render_kernels.hpp
+// launched on the thread pool instead of a CUDA grid, with the device's
+// schedule (run_gradient_waves: waves of tapes cut from one pool, pixels
+// whose tape overflowed taken back and redone on longer tapes, gradients
+// accumulated with atomic adds). Whatever in a device pass depends on the
+// image size runs here too, on machines without a GPU, and can be checked
+// against the plain host passes (render/passes.hpp).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "difftrans/accel/bvh.hpp"
+#include "difftrans/core/parallel.hpp"
+#include "difftrans/cuda/render_kernels.hpp"
+#include "difftrans/render/host_scene.hpp"
+
+namespace difftrans::cuda {
+
+// The launch backend of run_gradient_waves on host threads.
+class HostLaunch {
+ public:
+  template <class T>
+  std::vector<T> make(std::size_t n) {
+    return std::vector<T>(n);
+  }
+  template <class K>
+  void launch(int n, const K& kernel) {
+    ThreadPool::global().parallel_for(n, 16, [&](std::int64_t b, std::int64_t e, int) {
+      for (std::int64_t i = b; i < e; ++i) kernel(int(i));
+    });
+  }
+  std::uint32_t* counters() { return counters_; }
+  void read_counters(std::uint32_t* c) const {
+    for (int i = 0; i < counter_count; ++i) c[i] = __atomic_load_n(counters_ + i, __ATOMIC_RELAXED);
+  }
+  void set_counter(int i, std::uint32_t v) { __atomic_store_n(counters_ + i, v, __ATOMIC_RELAXED); }
+
+ private:
+  std::uint32_t counters_[counter_count] = {};
+};
+
+// What the host twin of a reverse pass reports.
+struct TwinGradientStats {
+  std::uint32_t counters[counter_count] = {};
+  GradientWaves waves;
+};
+
+// The device reverse pass (cuda::render_gradient) on host threads, over the
+// portable BVH `bvh` of the scene's mesh: adds dLoss/dparameter to `grad`
+// given dLoss/dpixel; returns the image.
+inline std::vector<float> twin_render_gradient(const render::HostScene& s, const accel::Bvh& bvh,
+                                               const scene::Camera& cam, const float* pixel_adjoint,
+                                               render::SceneGradient& grad, const render::TraceSettings& trace,
+                                               int samples_per_axis, const GradientSchedule& schedule,
+                                               TwinGradientStats* stats = nullptr) {
+  const std::int64_t pixels = std::int64_t(cam.width) * cam.height;
+  std::vector<float> image(std::size_t(pixels) * 3, 0.0f);
+  HostLaunch be;
+  ad::ParamSet params = s.params();
+  grad.attach(params);
+  PixelJob job;
+  job.scene = s.view(true, true);
+  job.bvh = bvh.view();
+  job.camera = cam;
+  job.trace = trace;
+  job.params = &params;
+  job.samples_per_axis = samples_per_axis;
+  job.image = image.data();
+  job.pixel_adjoint = pixel_adjoint;
+  job.counters = be.counters();
+  const GradientWaves waves = run_gradient_waves(be, job, pixels, schedule);
+  grad.fold_normals(s);
+  if (stats) {
+    be.read_counters(stats->counters);
+    stats->waves = waves;
+  }
+  return image;
+}
+
+}  // namespace difftrans::cuda
