@@ -49,7 +49,7 @@ for step in ${STEPS:-tests bench syntax}; do
       inc=${prefix:+$prefix/include}
       inc=${inc:-/usr/include}
       flags=(-std=c++17 -fsyntax-only -I"$root/include" -I"$root/tests" -I"$root/bench" -I"$root/examples"
-             -isystem "$inc/stb" -isystem "$inc/OpenEXR" -isystem "$inc/Imath" -DDIFFTRANS_HAVE_EMBREE=1
+             -isystem "$inc/stb" -isystem "$inc/OpenEXR" -isystem "$inc/Imath" -isystem "$inc/eigen3" -DDIFFTRANS_HAVE_EMBREE=1
              -DDIFFTRANS_DATA_DIR=\"data\" -DDIFFTRANS_BUILD_FLAGS=\"\")
       [ -n "$prefix" ] && flags+=(-isystem "$inc")
       s=$(date +%s)

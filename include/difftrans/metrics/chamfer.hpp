@@ -4,16 +4,20 @@
 // F1 at tau = 2PR / (P + R).
 #pragma once
 
-#include <nanoflann.hpp>
-
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <random>
 #include <stdexcept>
 #include <thread>
 #include <utility>
 #include <vector>
+
+// after the standard headers: Debian 12's nanoflann uses std::uint32_t and
+// std::size_t without including their headers, which GCC 13's library no
+// longer brings in on the way
+#include <nanoflann.hpp>
 
 #include "difftrans/io/mesh.hpp"
 
