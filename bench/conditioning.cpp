@@ -12,10 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "difftrans/io/hdr.hpp"
-#include "difftrans/io/mesh_file.hpp"
 #include "difftrans/render/rounding_sensitivity.hpp"
-#include "difftrans/render/views.hpp"
+#include "support/scenes.hpp"
 #include "support/timing.hpp"
 
 namespace dr = difftrans::render;
@@ -32,13 +30,8 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  const std::string data = DIFFTRANS_DATA_DIR;
-  difftrans::io::Mesh m = difftrans::io::read_mesh(data + "/meshes/spot.obj");
-  difftrans::io::normalize_to_unit_box(m);
-  dr::HostScene s = dr::make_host_scene(m, difftrans::io::Material{}, "spot");
-  s.ior = 1.472f;
+  dr::HostScene s = dt_bench::venice_scene("spot", 1.472f);
   s.set_homogeneous_absorption(Vec3f(0.3f, 0.6f, 1.2f));
-  dr::set_environment(s, difftrans::io::read_hdr(data + "/envmaps/venice_sunset_1k.hdr"));
   const auto cam = difftrans::scene::protocol_camera(Vec3f(0.4f, 0.5f, 1.0f), size, size);
   std::vector<float> adjoint(std::size_t(size) * std::size_t(size) * 3);
   for (std::size_t i = 0; i < adjoint.size(); ++i) adjoint[i] = 0.5f + 0.5f * std::sin(0.37f * float(i));

@@ -5,10 +5,8 @@
 #include <vector>
 
 #include "difftrans/core/parallel.hpp"
-#include "difftrans/io/hdr.hpp"
-#include "difftrans/io/mesh_file.hpp"
 #include "difftrans/render/passes.hpp"
-#include "difftrans/render/views.hpp"
+#include "support/scenes.hpp"
 #include "support/timing.hpp"
 
 namespace dt_bench {
@@ -16,13 +14,8 @@ namespace dt_bench {
 namespace dr = difftrans::render;
 
 dr::HostScene speed_scene(const std::string& mesh) {
-  const std::string data = DIFFTRANS_DATA_DIR;
-  difftrans::io::Mesh m = difftrans::io::read_mesh(data + "/meshes/" + mesh + ".obj");
-  difftrans::io::normalize_to_unit_box(m);
-  dr::HostScene s = dr::make_host_scene(m, difftrans::io::Material{}, mesh);
-  s.ior = 1.472f;
+  dr::HostScene s = venice_scene(mesh, 1.472f);
   s.set_homogeneous_absorption(difftrans::Vec3f(0.3f, 0.6f, 1.2f));
-  dr::set_environment(s, difftrans::io::read_hdr(data + "/envmaps/venice_sunset_1k.hdr"));
   return s;
 }
 

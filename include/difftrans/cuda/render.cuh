@@ -127,10 +127,8 @@ struct PassOptions {
   GradientSchedule schedule = {1 << 12, 1 << 10, 1 << 21, 0};  // reverse mode: tapes, waves, redo
 };
 
-// The image (value) and its derivative along a direction, as render::ImageDerivative.
-struct ImageDerivative {
-  std::vector<float> value, derivative;
-};
+// The image (value) and its derivative along a direction.
+using ImageDerivative = render::ImageDerivative;
 
 // What a device pass reports (summed over pixels and, for the gradient,
 // over its tries: segments and hits count the redone pixels again).

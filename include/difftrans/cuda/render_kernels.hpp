@@ -15,6 +15,7 @@
 
 #include "difftrans/accel/bvh.hpp"
 #include "difftrans/ad/ad.hpp"
+#include "difftrans/render/pass_options.hpp"
 #include "difftrans/render/tracer.hpp"
 #include "difftrans/scene/camera.hpp"
 
@@ -65,19 +66,6 @@ DT_HOST_DEVICE inline void counter_max(std::uint32_t* c, std::uint32_t v) {
 #endif
 }
 
-// Calls f(origin, direction, weight) for the n×n sub-pixel samples of pixel
-// `pix`, in the order render::render_image uses.
-template <class F>
-DT_HOST_DEVICE void for_each_pixel_sample(const scene::Camera& cam, int n, std::int64_t pix, F&& f) {
-  const float inv = 1.0f / float(n), weight = 1.0f / float(n * n);
-  const int x = int(pix % cam.width), y = int(pix / cam.width);
-  for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i) {
-      const scene::Ray r = cam.generate_ray(x, y, (float(i) + 0.5f) * inv, (float(j) + 0.5f) * inv);
-      f(r.origin, r.direction, weight);
-    }
-}
-
 DT_HOST_DEVICE inline void add_counts(const PixelJob& job, const render::TraceStats& st) {
   if (!job.counters) return;
   counter_add(job.counters + counter_segments, std::uint32_t(st.segments));
@@ -96,7 +84,7 @@ struct RenderPixel {
     ad::ParamReader<S> reader(job.params);
     render::TraceStats st;
     float value[3] = {0.0f, 0.0f, 0.0f}, tangent[3] = {0.0f, 0.0f, 0.0f};
-    detail::for_each_pixel_sample(job.camera, job.samples_per_axis, pix,
+    render::for_each_pixel_sample(job.camera, job.samples_per_axis, pix,
                                   [&](const Vec3f& o, const Vec3f& d, float w) {
                                     const Vec3<S> L = render::trace<S>(job.scene, job.bvh, reader, o, d, job.trace, &st);
                                     for (int c = 0; c < 3; ++c) {
@@ -135,7 +123,7 @@ DT_HOST_DEVICE inline bool gradient_pixel(const PixelJob& job, int pix, ad::Tape
   float value[3] = {0.0f, 0.0f, 0.0f};
   bool overflowed = false;
   const float* a = job.pixel_adjoint + 3 * std::int64_t(pix);
-  for_each_pixel_sample(job.camera, job.samples_per_axis, pix, [&](const Vec3f& o, const Vec3f& d, float w) {
+  render::for_each_pixel_sample(job.camera, job.samples_per_axis, pix, [&](const Vec3f& o, const Vec3f& d, float w) {
     const float ws = w * adjoint_scale;
     const Vec3f adjoint(ws * a[0], ws * a[1], ws * a[2]);
     const Vec3f L = render::trace_streamed<float>(job.scene, job.bvh, reader, o, d, adjoint, job.trace, &st);

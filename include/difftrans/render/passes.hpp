@@ -13,21 +13,16 @@
 #pragma once
 
 #include <cmath>
+#include <cstdint>
 #include <memory>
 #include <vector>
 
 #include "difftrans/core/parallel.hpp"
 #include "difftrans/render/host_scene.hpp"
+#include "difftrans/render/pass_options.hpp"
 #include "difftrans/scene/camera.hpp"
 
 namespace difftrans::render {
-
-struct PassOptions {
-  TraceSettings trace;
-  int samples_per_axis = 1;            // n: n² sub-pixel samples at the centres of an n×n grid
-  std::int32_t tape_capacity = 1 << 20;     // nodes per ray (reverse mode)
-  std::int32_t leaf_log_capacity = 1 << 16;  // parameter leaves per ray (reverse mode)
-};
 
 struct PassStats {
   TraceStats trace;
@@ -46,20 +41,12 @@ struct PassStats {
 
 namespace detail {
 
-// Calls f(pixel, origin, direction, weight) for each of the n × n stratified
-// samples (stratum centres) of every pixel index in [p0, p1) (row-major:
-// pixel = y · width + x); weight = 1 / n².
+// Calls f(pixel, origin, direction, weight) for every sample
+// (for_each_pixel_sample) of every pixel index in [p0, p1).
 template <class F>
 void for_each_sample(const scene::Camera& cam, int n, std::int64_t p0, std::int64_t p1, F&& f) {
-  const float inv = 1.0f / float(n), weight = 1.0f / float(n * n);
-  for (std::int64_t pix = p0; pix < p1; ++pix) {
-    const int x = int(pix % cam.width), y = int(pix / cam.width);
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i) {
-        const scene::Ray r = cam.generate_ray(x, y, (float(i) + 0.5f) * inv, (float(j) + 0.5f) * inv);
-        f(pix, r.origin, r.direction, weight);
-      }
-  }
+  for (std::int64_t pix = p0; pix < p1; ++pix)
+    for_each_pixel_sample(cam, n, pix, [&](const Vec3f& o, const Vec3f& d, float w) { f(pix, o, d, w); });
 }
 
 // Per-worker accumulation of statistics.
@@ -181,9 +168,6 @@ std::vector<float> render_gradient(const HostScene& s, const scene::Camera& cam,
 
 // The image (value) and its derivative along `direction` (one array per
 // parameter buffer, null where the direction is zero), with Dual<float, 1>.
-struct ImageDerivative {
-  std::vector<float> value, derivative;
-};
 
 inline ImageDerivative render_derivative(const HostScene& s, const scene::Camera& cam,
                                          const float* const direction[param_count], const PassOptions& opt = {},
