@@ -2,6 +2,7 @@
 // other environment maps (docs/benchmark-scenes.md: the three maps not used for
 // training, 10 test views each), compared with the scene's ground truth
 // rendered under the same maps: images, metrics and a contact sheet per map.
+#include <cmath>
 #include <set>
 
 #include "output_folder.hpp"
@@ -11,7 +12,7 @@ namespace difftrans::cli {
 namespace {
 
 struct RelightOptions {
-  std::string mesh, scene, out, data;
+  std::string mesh, scene, out, data, device = "cpu";
   MaterialOptions material;
   std::vector<std::string> envs;
   bool all_envs = false;
@@ -43,6 +44,7 @@ std::string training_environment(const io::Scene& scene, const fs::path& data) {
 }
 
 void run(const RelightOptions& o) {
+  check_device(o.device);
   if (o.envs.empty() == !o.all_envs) throw CLI::ValidationError("give either --env (one or more) or --all-envs");
   const io::Material material = o.material.resolve();
   const io::Mesh mesh = load_mesh(o.mesh);
@@ -88,6 +90,12 @@ void run(const RelightOptions& o) {
   io::Json result = io::Json::object();
   io::Json per_env = io::Json::array();
   double sum_psnr = 0, sum_mask = 0, sum_ssim = 0;
+  int n_mask = 0;  // environments with an in-mask PSNR (none where the views have no masks)
+  const auto add_metrics = [&](const io::Json& entry) {
+    sum_psnr += entry["psnr"].get<double>();
+    if (entry["psnr_mask"].is_number()) sum_mask += entry["psnr_mask"].get<double>(), ++n_mask;
+    sum_ssim += entry["ssim"].get<double>();
+  };
   std::set<std::string> used_names;
   for (std::size_t e = 0; e < envs.size(); ++e) {
     std::string name = envs[e].name();
@@ -95,29 +103,30 @@ void run(const RelightOptions& o) {
     progress("relight: environment " + std::to_string(e + 1) + "/" + std::to_string(envs.size()) + ": " + envs[e].spec);
     const fs::path dir = out.path() / name;
     apply_environment(s, envs[e]);
-    const auto renders = render_views(s, views, options, dir, true, "relight " + name);
+    const std::unique_ptr<GpuViewTracer> gpu = gpu_tracer_for(o.device, s, "relight " + name);
+    const auto renders = render_views(s, views, options, dir, true, "relight " + name, nullptr, nullptr, gpu.get());
     io::Json entry = io::Json::object();
     if (is_truth) {
       entry = compare_with_truth(renders, &renders, dir, o.sheet_rows);
-      sum_psnr += entry["psnr"].get<double>();
-      sum_mask += entry["psnr_mask"].is_number() ? entry["psnr_mask"].get<double>() : 0.0;
-      sum_ssim += entry["ssim"].get<double>();
+      add_metrics(entry);
     } else if (truth) {
       apply_environment(*truth, envs[e]);
-      const auto reference = render_views(*truth, views, options, dir / "reference", true, "relight " + name + " reference");
+      const std::unique_ptr<GpuViewTracer> truth_gpu = gpu ? gpu_tracer_for(o.device, *truth, "relight " + name) : nullptr;
+      const auto reference = render_views(*truth, views, options, dir / "reference", true,
+                                          "relight " + name + " reference", nullptr, nullptr, truth_gpu.get());
       entry = compare_with_truth(renders, &reference, dir, o.sheet_rows);
-      sum_psnr += entry["psnr"].get<double>();
-      sum_mask += entry["psnr_mask"].is_number() ? entry["psnr_mask"].get<double>() : 0.0;
-      sum_ssim += entry["ssim"].get<double>();
+      add_metrics(entry);
     }
     entry["environment"] = envs[e].spec;
     entry["environment_kind"] = envs[e].description();
     entry["folder"] = name;
+    entry["device"] = gpu ? "cuda" : "cpu";
     per_env.push_back(entry);
   }
   if ((truth || is_truth) && !envs.empty()) {
     result["psnr"] = sum_psnr / double(envs.size());
-    result["psnr_mask"] = sum_mask / double(envs.size());
+    // the mean over the environments that have one; null (NaN) when none has
+    result["psnr_mask"] = n_mask ? sum_mask / double(n_mask) : std::nan("");
     result["ssim"] = sum_ssim / double(envs.size());
   }
   result["views_per_environment"] = views.size();
@@ -153,6 +162,7 @@ void add_relight(CLI::App& app) {
   cmd->add_option("--data", o->data,
                   "data folder with envmaps/ (default: $DIFFTRANS_DATA, else the data/ folder of the "
                   "difftrans sources or installation)");
+  cmd->add_option("--device", o->device, device_help)->capture_default_str()->check(CLI::IsMember({"cpu", "cuda", "auto"}));
   cmd->add_option("--out", o->out, "output folder")->required();
   cmd->add_flag("--overwrite", o->overwrite, "replace an existing, non-empty --out");
   cmd->callback([o] { run(*o); });

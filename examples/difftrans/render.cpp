@@ -9,7 +9,7 @@ namespace difftrans::cli {
 namespace {
 
 struct RenderOptions {
-  std::string mesh, env, scene, split = "test", out;
+  std::string mesh, env, scene, split = "test", out, device = "cpu";
   MaterialOptions material;
   std::optional<int> views;
   std::string placement = "sphere";
@@ -21,6 +21,7 @@ struct RenderOptions {
 };
 
 void run(const RenderOptions& o) {
+  check_device(o.device);
   if (o.scene.empty() == !o.views) throw CLI::ValidationError("give either --scene (its cameras) or --views N (protocol views)");
   const io::Material material = o.material.resolve();
   const io::Mesh mesh = load_mesh(o.mesh);
@@ -59,8 +60,9 @@ void run(const RenderOptions& o) {
     pass.trace.prune_throughput = o.roulette;
     pass.trace.roulette = true;
   }
+  const std::unique_ptr<GpuViewTracer> gpu = gpu_tracer_for(o.device, s, "render");
   RenderTotals totals;
-  const auto rendered = render_views(s, views, pass, out.path(), true, "render", nullptr, &totals);
+  const auto rendered = render_views(s, views, pass, out.path(), true, "render", nullptr, &totals, gpu.get());
   io::write_transforms(out.path() / "transforms.json", split_of(rendered));
   io::Json result = io::Json::object();
   if (with_truth) {
@@ -70,6 +72,7 @@ void run(const RenderOptions& o) {
   result["environment"] = env.description();
   result["views"] = rendered.size();
   result["trace"] = totals.json(rendered.size());
+  result["device"] = gpu ? "cuda" : "cpu";
   result["out"] = out.final_path().string();
   io::write_json(out.path() / "render.json", result);
   out.commit();
@@ -110,6 +113,7 @@ void add_render(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1.0));
   cmd->add_option("--sheet-rows", o->sheet_rows, "views in the contact sheet")->capture_default_str()->check(CLI::Range(1, 64));
+  cmd->add_option("--device", o->device, device_help)->capture_default_str()->check(CLI::IsMember({"cpu", "cuda", "auto"}));
   cmd->add_option("--out", o->out, "output folder")->required();
   cmd->add_flag("--overwrite", o->overwrite, "replace an existing, non-empty --out");
   cmd->callback([o] { run(*o); });

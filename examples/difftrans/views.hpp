@@ -1,5 +1,5 @@
 // Shared pieces of synth, render and relight: option parsing (colours,
-// environments, materials), rendering a list of views to files with progress,
+// environments, materials, --device), rendering a list of views to files with progress,
 // comparing renders with ground truth (metrics JSON, contact sheet), and
 // writing an output folder so that a failure leaves nothing half-written.
 #pragma once
@@ -12,6 +12,7 @@
 #include <memory>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -25,6 +26,7 @@
 #include "difftrans/metrics/image.hpp"
 #include "difftrans/render/views.hpp"
 #include "difftrans/scene/room.hpp"
+#include "gpu/gpu_views.hpp"
 
 #ifndef DIFFTRANS_DEFAULT_DATA_DIR
 #define DIFFTRANS_DEFAULT_DATA_DIR "data"
@@ -269,6 +271,36 @@ struct RenderTotals {
   }
 };
 
+// --device: where render and relight trace their views.
+inline constexpr const char* device_help =
+    "where to trace: cpu (the host's threads), cuda (the GPU; fails at once without one) or auto (the GPU when there "
+    "is one)";
+
+// --device cuda on a build or machine without a usable GPU: fails at once.
+inline void check_device(const std::string& device) {
+  if (device != "cuda") return;
+  const std::string why = gpu_unavailable_reason();
+  if (!why.empty()) throw std::runtime_error("--device cuda: " + why);
+}
+
+// The GPU tracer of `s` that --device asks for, or none (trace on the host).
+// cuda fails at once, saying why, when there is no usable GPU or the scene
+// is one the GPU does not trace (a near field, a room); auto falls back to
+// the host and says so.
+inline std::unique_ptr<GpuViewTracer> gpu_tracer_for(const std::string& device, const render::HostScene& s,
+                                                     const std::string& label, bool room = false) {
+  if (device == "cpu") return nullptr;
+  std::string why = gpu_unavailable_reason();
+  if (why.empty() && (s.near_field || room)) why = "a near-field environment or a room is traced on the host only";
+  if (!why.empty()) {
+    if (device == "cuda") throw std::runtime_error("--device cuda: " + why);
+    progress(label + ": tracing on the host (" + why + ")");
+    return nullptr;
+  }
+  progress(label + ": tracing on the GPU");
+  return std::make_unique<GpuViewTracer>(s);
+}
+
 // What was rendered for one view.
 struct Rendered {
   View view;
@@ -279,11 +311,12 @@ struct Rendered {
 // Renders every view; writes DIR/images/NAME.exr, DIR/previews/NAME.png and
 // (write_masks) DIR/masks/NAME.png, filling each view's frame paths.
 // A room (synth --room), when given, is what rays leaving the object see.
-// `totals`, when given, receives the work done.
+// `totals`, when given, receives the work done. `gpu`, when given, traces
+// the images (gpu_tracer_for; the masks stay on the host).
 inline std::vector<Rendered> render_views(const render::HostScene& s, std::vector<View> views,
                                           const render::PassOptions& options, const fs::path& dir, bool write_masks,
                                           const std::string& label, const scene::Room* room = nullptr,
-                                          RenderTotals* totals = nullptr) {
+                                          RenderTotals* totals = nullptr, GpuViewTracer* gpu = nullptr) {
   fs::create_directories(dir / "images");
   fs::create_directories(dir / "previews");
   if (write_masks) fs::create_directories(dir / "masks");
@@ -297,8 +330,16 @@ inline std::vector<Rendered> render_views(const render::HostScene& s, std::vecto
     r.view = std::move(views[i]);
     render::PassStats st;
     const auto t0 = std::chrono::steady_clock::now();
-    r.image = room ? render::render_view_with(s, r.view.camera, options, render::fixed_escape(*room), &st)
-                   : render::render_view(s, r.view.camera, options, &st);
+    if (gpu && !room) {
+      GpuViewStats g;
+      r.image = io::Image(r.view.camera.width, r.view.camera.height);
+      r.image.rgb = gpu->render(r.view.camera, options, &g);
+      st.rays = g.rays;
+      st.trace.segments = std::int32_t(g.segments);
+    } else {
+      r.image = room ? render::render_view_with(s, r.view.camera, options, render::fixed_escape(*room), &st)
+                     : render::render_view(s, r.view.camera, options, &st);
+    }
     trace_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     rays += st.rays;
     segments += st.trace.segments;
