@@ -15,6 +15,7 @@
 #include "difftrans/io/ply.hpp"
 #include "difftrans/metrics/metrics.hpp"
 #include "difftrans/render/mesh_picture.hpp"
+#include "stage_output.hpp"
 
 namespace difftrans::cli {
 namespace {
@@ -125,6 +126,7 @@ void evaluate_geometry(const EvaluateOptions& o, io::Json& result) {
   result["precision"] = m.precision;
   result["recall"] = m.recall;
   result["tau"] = m.tau;
+  result["normal_error_deg"] = normal_error_json(metrics::normal_error(pred, gt, options));
   result["samples"] = m.samples;
   result["seed"] = o.seed;
   result["mesh_warnings"] = warnings;

@@ -25,6 +25,7 @@
 #include "difftrans/io/mesh_file.hpp"
 #include "difftrans/io/png.hpp"
 #include "difftrans/metrics/chamfer.hpp"
+#include "difftrans/metrics/normals.hpp"
 
 namespace difftrans::cli {
 namespace {
@@ -337,8 +338,12 @@ io::Json geometry_stage(const io::Scene& scene, RunFolder& folder, const Geometr
       j["raw"]["f1"] = raw_m.f1;
       j["final"]["chamfer"] = fin_m.chamfer;
       j["final"]["f1"] = fin_m.f1;
+      const metrics::NormalError fin_n = metrics::normal_error(to_io_mesh(pos, tris), gt, go);
+      j["raw"]["normal_error_deg"] = normal_error_json(metrics::normal_error(to_io_mesh(raw_pos, raw_tris), gt, go));
+      j["final"]["normal_error_deg"] = normal_error_json(fin_n);
       j["gt_genus"] = dg::mesh_genus(gt_tris, std::int32_t(gt.positions.size())).genus;
-      progress("geometry: CD " + fixed(fin_m.chamfer, 6) + " F1 " + fixed(fin_m.f1, 4) + " (raw: CD " +
+      progress("geometry: CD " + fixed(fin_m.chamfer, 6) + " F1 " + fixed(fin_m.f1, 4) + ", normals off by " + fixed(fin_n.mean_deg, 2) +
+               " deg on average (raw: CD " +
                fixed(raw_m.chamfer, 6) + " F1 " + fixed(raw_m.f1, 4) + ")");
     } catch (const std::exception& e) {
       warn(std::string("geometry: no comparison with the ground truth: ") + e.what());

@@ -33,6 +33,7 @@
 #include "difftrans/metrics/chamfer.hpp"
 #include "difftrans/metrics/ior.hpp"
 #include "difftrans/metrics/mesh_quality.hpp"
+#include "difftrans/metrics/normals.hpp"
 #include "difftrans/render/mesh_picture.hpp"
 #include "config_options.hpp"
 #include "pipeline/environment.hpp"
@@ -365,6 +366,8 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
       const auto g = metrics::evaluate_geometry(to_io_mesh(s.mesh.positions, s.mesh.triangles), gt_mesh);
       j["chamfer"] = g.chamfer;
       j["f1"] = g.f1;
+      j["normal_error_deg"] =
+          normal_error_json(metrics::normal_error(to_io_mesh(s.mesh.positions, s.mesh.triangles), gt_mesh));
       if (cfg.optimize_positions) {
         write_geometry_picture(out / "geometry_stage2.png", mesh, to_io_mesh(s.mesh.positions, s.mesh.triangles),
                                gt_mesh);
@@ -400,6 +403,10 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
            (j.contains("ior_error") ? " (error " + fixed(j["ior_error"].get<double>(), 4) + ")" : std::string()) +
            (j.contains("absorption_error")
                 ? ", absorption error " + fixed(100.0 * j["absorption_error"]["mean_relative"].get<double>(), 1) + " %"
+                : std::string()) +
+           (cfg.optimize_positions && j.contains("normal_error_deg")
+                ? ", CD " + fixed(j["chamfer"].get<double>(), 6) + ", normals off by " +
+                      fixed(j["normal_error_deg"]["mean"].get<double>(), 2) + " deg on average"
                 : std::string()) +
            ", test PSNR " + fixed(j["test"].value("psnr", 0.0), 2) + " dB, fitted in " + duration_text(fit_seconds));
   j["peak_memory_mb"] = peak_memory_mb();

@@ -14,7 +14,9 @@
 #include <vector>
 #include <sys/resource.h>
 
+#include "difftrans/io/json.hpp"
 #include "difftrans/io/mesh.hpp"
+#include "difftrans/metrics/normals.hpp"
 
 namespace difftrans::cli {
 
@@ -23,6 +25,17 @@ inline io::Mesh to_io_mesh(const std::vector<float>& pos, const std::vector<std:
   for (std::size_t i = 0; i + 2 < pos.size(); i += 3) m.positions.emplace_back(pos[i], pos[i + 1], pos[i + 2]);
   for (std::size_t f = 0; f + 2 < tris.size(); f += 3) m.triangles.emplace_back(tris[f], tris[f + 1], tris[f + 2]);
   return m;
+}
+
+// The shading-normal error (metrics/normals.hpp) as reconstruct.json and
+// evaluate write it, in degrees.
+inline io::Json normal_error_json(const metrics::NormalError& e) {
+  io::Json j;
+  j["mean"] = e.mean_deg;
+  j["median"] = e.median_deg;
+  j["p90"] = e.p90_deg;
+  j["rms"] = e.rms_deg;
+  return j;
 }
 
 // A short text that changes when the bytes change (FNV-1a, 64 bits): tells a

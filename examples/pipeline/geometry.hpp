@@ -176,8 +176,9 @@ struct Stage1Config {
     v(Field{"refine_views_per_iteration", "--refine-batch", "training views per refinement iteration", 1, big},
       c.refine_views_per_iteration);
     v(Field{"refine_lr", "", "refinement learning rate"}, c.refine_lr);
-    v(Field{"refine_lambda", "", "large-steps lambda of the refinement"}, c.refine_lambda);
-    v(Field{"refine_edge_normal", "", "weight of the edge-normal term in the refinement"}, c.refine_edge_normal);
+    v(Field{"refine_lambda", "--refine-lambda", "large-steps lambda of the refinement", 0, 1e6}, c.refine_lambda);
+    v(Field{"refine_edge_normal", "--refine-edge-normal", "weight of the edge-normal term in the refinement", 0, 1e6},
+      c.refine_edge_normal);
     v(Field{"metric_samples", "--metric-samples", "points per mesh for CD / F1", 1, big}, c.metric_samples);
     v(Field{"sheet_views", "", "rows of the silhouette comparison strip"}, c.sheet_views);
   }

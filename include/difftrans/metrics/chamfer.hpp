@@ -55,9 +55,17 @@ struct PointCloud {
 
 }  // namespace detail
 
+// A point on a mesh's surface: where it lies, and on which triangle at which
+// barycentrics (b1, b2) of its second and third corners.
+struct SurfaceSample {
+  Vec3d point{0.0};
+  std::size_t triangle = 0;
+  double b1 = 0.0, b2 = 0.0;
+};
+
 // n points uniformly distributed by area over the surface (triangle chosen by
 // area, then a uniform point in it). Deterministic for a seed.
-inline std::vector<Vec3d> sample_surface(const io::Mesh& mesh, std::size_t n, std::uint64_t seed) {
+inline std::vector<SurfaceSample> sample_surface_at(const io::Mesh& mesh, std::size_t n, std::uint64_t seed) {
   std::vector<double> cdf(mesh.triangles.size());
   double total = 0.0;
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
@@ -69,7 +77,7 @@ inline std::vector<Vec3d> sample_surface(const io::Mesh& mesh, std::size_t n, st
   if (!(total > 0.0) || !std::isfinite(total))
     throw std::invalid_argument("sample_surface: the mesh has no surface area to sample");
   std::mt19937_64 rng(seed);
-  std::vector<Vec3d> points(n);
+  std::vector<SurfaceSample> samples(n);
   for (std::size_t i = 0; i < n; ++i) {
     const double pick = detail::uniform01(rng) * total;
     std::size_t t = std::size_t(std::upper_bound(cdf.begin(), cdf.end(), pick) - cdf.begin());
@@ -78,27 +86,37 @@ inline std::vector<Vec3d> sample_surface(const io::Mesh& mesh, std::size_t n, st
     const double s = std::sqrt(detail::uniform01(rng)), r = detail::uniform01(rng);
     const double b1 = s * (1.0 - r), b2 = s * r;
     const Vec3d a(mesh.positions[size_t(f.x)]), b(mesh.positions[size_t(f.y)]), c(mesh.positions[size_t(f.z)]);
-    points[i] = (1.0 - b1 - b2) * a + b1 * b + b2 * c;
+    samples[i] = {(1.0 - b1 - b2) * a + b1 * b + b2 * c, t, b1, b2};
   }
+  return samples;
+}
+
+// The points of sample_surface_at alone.
+inline std::vector<Vec3d> sample_surface(const io::Mesh& mesh, std::size_t n, std::uint64_t seed) {
+  const std::vector<SurfaceSample> samples = sample_surface_at(mesh, n, seed);
+  std::vector<Vec3d> points(samples.size());
+  for (std::size_t i = 0; i < samples.size(); ++i) points[i] = samples[i].point;
   return points;
 }
 
-// Squared distance from each query to its nearest point of `points`.
-inline std::vector<double> nearest_squared_distances(const std::vector<Vec3d>& queries,
-                                                     const std::vector<Vec3d>& points, unsigned threads = 0) {
-  if (points.empty()) throw std::invalid_argument("nearest_squared_distances: no points to search");
+// The nearest point of `points` to each query: its index and squared distance.
+struct Nearest {
+  std::uint32_t index = 0;
+  double distance2 = 0.0;
+};
+
+inline std::vector<Nearest> nearest_points(const std::vector<Vec3d>& queries, const std::vector<Vec3d>& points,
+                                           unsigned threads = 0) {
+  if (points.empty()) throw std::invalid_argument("nearest_points: no points to search");
   using Cloud = detail::PointCloud;
   using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Cloud>, Cloud, 3, std::uint32_t>;
   const Cloud cloud{points};
   Tree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(16));
-  std::vector<double> out(queries.size());
+  std::vector<Nearest> out(queries.size());
   const auto work = [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
-      std::uint32_t index = 0;
-      double d2 = 0.0;
       const double q[3] = {queries[i].x, queries[i].y, queries[i].z};
-      tree.knnSearch(q, 1, &index, &d2);
-      out[i] = d2;
+      tree.knnSearch(q, 1, &out[i].index, &out[i].distance2);
     }
   };
   if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
@@ -109,6 +127,16 @@ inline std::vector<double> nearest_squared_distances(const std::vector<Vec3d>& q
     pool.emplace_back(work, std::min(queries.size(), k * chunk), std::min(queries.size(), (k + 1) * chunk));
   work(0, std::min(queries.size(), chunk));
   for (auto& t : pool) t.join();
+  return out;
+}
+
+// Squared distance from each query to its nearest point of `points`.
+inline std::vector<double> nearest_squared_distances(const std::vector<Vec3d>& queries,
+                                                     const std::vector<Vec3d>& points, unsigned threads = 0) {
+  if (points.empty()) throw std::invalid_argument("nearest_squared_distances: no points to search");
+  const std::vector<Nearest> nearest = nearest_points(queries, points, threads);
+  std::vector<double> out(nearest.size());
+  for (std::size_t i = 0; i < nearest.size(); ++i) out[i] = nearest[i].distance2;
   return out;
 }
 

@@ -7,3 +7,4 @@
 #include "difftrans/metrics/chamfer.hpp"
 #include "difftrans/metrics/image.hpp"
 #include "difftrans/metrics/ior.hpp"
+#include "difftrans/metrics/normals.hpp"
