@@ -39,6 +39,13 @@
 #include "difftrans/scene/mesh.hpp"
 #include "pipeline/config.hpp"
 
+namespace difftrans::losses {
+inline const std::array<const char*, 2>& enum_names(EdgeNormalForm) {
+  static const std::array<const char*, 2> names{"squared", "linear"};
+  return names;
+}
+}  // namespace difftrans::losses
+
 namespace difftrans::pipeline {
 
 // the parts stage 1 assembles
@@ -136,7 +143,8 @@ struct Stage1Config {
   int refine_views_per_iteration = 8;
   float refine_lr = 3e-3f;          // AdamUniform on u = (I + λL) x
   double refine_lambda = 19.0;
-  float refine_edge_normal = 1e-3f;  // weight of Σ (1 − n_i·n_j)² (mean over interior edges)
+  float refine_edge_normal = 1e-3f;  // weight of the edge-normal term (mean over interior edges; its form below)
+  losses::EdgeNormalForm refine_edge_form = losses::EdgeNormalForm::squared;
   // evaluation and pictures
   std::uint64_t metric_samples = 200000;  // points per mesh for CD / F1
   int sheet_views = 4;                    // rows of the silhouette comparison strip
@@ -179,6 +187,9 @@ struct Stage1Config {
     v(Field{"refine_lambda", "--refine-lambda", "large-steps lambda of the refinement", 0, 1e6}, c.refine_lambda);
     v(Field{"refine_edge_normal", "--refine-edge-normal", "weight of the edge-normal term in the refinement", 0, 1e6},
       c.refine_edge_normal);
+    v(Field{"refine_edge_form", "--refine-edge-form",
+            "the refinement's edge-normal penalty per edge: squared (1 - cos)^2 or linear 1 - cos"},
+      c.refine_edge_form);
     v(Field{"metric_samples", "--metric-samples", "points per mesh for CD / F1", 1, big}, c.metric_samples);
     v(Field{"sheet_views", "", "rows of the silhouette comparison strip"}, c.sheet_views);
   }

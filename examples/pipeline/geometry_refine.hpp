@@ -55,7 +55,8 @@ struct Stage1RefineResult {
 // the gradient w.r.t. its positions (3 per vertex) written to `grad`.
 inline Stage1RefineStats stage1_refine_loss(const scene::TriangleMesh& m, const geometry::TriangleNeighbors& nb,
                                             const MeshAdjacency& adj, const std::vector<Stage1View>& views,
-                                            const std::vector<int>& picked, float edge_weight, std::vector<float>& grad) {
+                                            const std::vector<int>& picked, float edge_weight, std::vector<float>& grad,
+                                            losses::EdgeNormalForm edge_form = losses::EdgeNormalForm::squared) {
   Stage1RefineStats st;
   grad.assign(m.positions.size(), 0.0f);
   const float per_view = 1.0f / float(std::max<std::size_t>(1, picked.size()));
@@ -75,7 +76,7 @@ inline Stage1RefineStats stage1_refine_loss(const scene::TriangleMesh& m, const 
     std::vector<Vec3<V>> x(static_cast<std::size_t>(nv));
     for (std::int32_t v = 0; v < nv; ++v)
       for (int c = 0; c < 3; ++c) x[std::size_t(v)][c] = tape.variable(m.positions[std::size_t(3 * v + c)]);
-    const V e = edge_normal_loss(x, m.triangles, adj, Reduction::mean);
+    const V e = edge_normal_loss(x, m.triangles, adj, Reduction::mean, edge_form);
     if (!tape.overflowed()) {
       tape.backward(e);
       for (std::int32_t v = 0; v < nv; ++v)
@@ -132,7 +133,8 @@ inline Stage1RefineResult stage1_refine(const std::vector<float>& positions, con
     std::mt19937_64 rng(config.seed * 0xD1B54A32D192ED03ull + std::uint64_t(it));
     std::shuffle(all.begin(), all.end(), rng);
     all.resize(std::min<std::size_t>(all.size(), std::size_t(std::max(1, config.refine_views_per_iteration))));
-    Stage1RefineStats st = stage1_refine_loss(m, nb, adj, views, all, config.refine_edge_normal, grad);
+    Stage1RefineStats st = stage1_refine_loss(m, nb, adj, views, all, config.refine_edge_normal, grad,
+                                                  config.refine_edge_form);
     opt.step(m.positions, grad, config.refine_lr);
     st.iteration = it;
     st.seconds = std::chrono::duration<double>(clock::now() - ts).count();

@@ -617,6 +617,31 @@ TEST_CASE_TEMPLATE("regularizers: edge-normal term 0 on a plane, 32/3 on a regul
   const MeshAdjacency at = mesh_adjacency(t.t, 4);
   CHECK(double(value_of(edge_normal_loss(as<S>(t.p), t.t, at))) == doctest::Approx(32.0 / 3.0).epsilon(tl));
   CHECK(double(value_of(edge_normal_loss(as<S>(t.p), t.t, at, Reduction::mean))) == doctest::Approx(16.0 / 9.0).epsilon(tl));
+  // the linear form: six edges of 1 − (−1/3) = 4/3
+  CHECK(double(value_of(edge_normal_loss(as<S>(t.p), t.t, at, Reduction::sum, EdgeNormalForm::linear))) ==
+        doctest::Approx(8.0).epsilon(tl));
+  CHECK(std::abs(double(value_of(edge_normal_loss(as<S>(plane.p), plane.t, ap, Reduction::sum, EdgeNormalForm::linear)))) <
+        tl);
+}
+
+TEST_CASE("regularizers: the linear edge-normal form pulls a shallow crease harder than the squared one") {
+  // two triangles folded by 5° along their shared edge: the squared form's
+  // gradient is cubic in the angle, the linear form's linear
+  const double theta = 5.0 * 3.14159265358979323846 / 180.0;
+  Mesh m;
+  m.p = {Vec3d(0, 0, 0), Vec3d(1, 0, 0), Vec3d(0.5, 1, 0), Vec3d(0.5, -std::cos(theta), std::sin(theta))};
+  m.t = {0, 1, 2, 1, 0, 3};
+  const MeshAdjacency adj = mesh_adjacency(m.t, 4);
+  const double c = std::cos(theta);
+  CHECK(edge_normal_loss(m.p, m.t, adj) == doctest::Approx((1 - c) * (1 - c)).epsilon(1e-9));
+  CHECK(edge_normal_loss(m.p, m.t, adj, Reduction::sum, EdgeNormalForm::linear) == doctest::Approx(1 - c).epsilon(1e-9));
+  const auto pull = [&](EdgeNormalForm form) {
+    std::vector<double> grad;
+    reverse_gradient<double>(m.p, [&](const auto& v) { return edge_normal_loss(v, m.t, adj, Reduction::sum, form); }, grad);
+    return std::abs(grad[3 * 3 + 2]);  // the folded corner's height
+  };
+  CHECK(pull(EdgeNormalForm::linear) > 100.0 * pull(EdgeNormalForm::squared));
+  CHECK(pull(EdgeNormalForm::linear) > 0.05);
 }
 
 TEST_CASE_TEMPLATE("regularizers: uniform Laplacian 0 on a regular flat grid's interior, a bump by hand", S,
@@ -646,11 +671,12 @@ struct MeshTerms {
       case 0: return mean_face_area(v, mesh->t);
       case 1: return developability_loss(v, mesh->t, *adj);
       case 2: return edge_normal_loss(v, mesh->t, *adj);
+      case 3: return edge_normal_loss(v, mesh->t, *adj, Reduction::sum, EdgeNormalForm::linear);
       default: return laplacian_loss(v, *adj);
     }
   }
 };
-const char* mesh_term_names[4] = {"mean_face_area", "developability", "edge_normal", "laplacian"};
+const char* mesh_term_names[5] = {"mean_face_area", "developability", "edge_normal", "edge_normal (linear)", "laplacian"};
 
 }  // namespace
 
@@ -661,7 +687,7 @@ TEST_CASE("regularizers: mesh terms' gradients match central differences (closed
   jitter(open, 0.15, 13);
   for (const Mesh* m : {&closed, &open}) {
     const MeshAdjacency adj = mesh_adjacency(m->t, std::int32_t(m->p.size()));
-    for (int which = 0; which < 4; ++which) {
+    for (int which = 0; which < 5; ++which) {
       CAPTURE(mesh_term_names[which]);
       const MeshTerms f{m, &adj, which};
       std::vector<double> grad;
@@ -680,7 +706,7 @@ TEST_CASE("regularizers: mesh terms, forward mode (Dual) agrees with reverse mod
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   std::vector<double> dir(3 * m.p.size());
   for (double& x : dir) x = u(rng);
-  for (int which = 0; which < 4; ++which) {
+  for (int which = 0; which < 5; ++which) {
     CAPTURE(mesh_term_names[which]);
     const MeshTerms f{&m, &adj, which};
     std::vector<double> g, gf;
@@ -705,7 +731,7 @@ TEST_CASE("regularizers: finite gradients at degenerate inputs") {
   const std::size_t f = 17;            // a face away from face 0: two of its corners coincide
   m.p[std::size_t(m.t[3 * f + 1])] = m.p[std::size_t(m.t[3 * f])];
   const MeshAdjacency adj = mesh_adjacency(m.t, std::int32_t(m.p.size()));
-  for (int which = 0; which < 4; ++which) {
+  for (int which = 0; which < 5; ++which) {
     CAPTURE(mesh_term_names[which]);
     const MeshTerms f{&m, &adj, which};
     std::vector<double> g, gf;
@@ -728,7 +754,7 @@ TEST_CASE("regularizers: finite gradients at degenerate inputs") {
   Mesh point = tetrahedron();
   for (Vec3d& p : point.p) p = Vec3d(0.25, 0.5, 1.0);
   const MeshAdjacency ap = mesh_adjacency(point.t, 4);
-  for (int which = 0; which < 4; ++which) {
+  for (int which = 0; which < 5; ++which) {
     reverse_gradient<double>(point.p, MeshTerms{&point, &ap, which}, g);
     CHECK(all_finite_values(g));
   }
@@ -803,7 +829,7 @@ TEST_CASE("regularizers: cost on a 64^3 FlexiCubes sphere and a 50k-face mesh" *
     auto t0 = now();
     const MeshAdjacency adj = mesh_adjacency(m.t, std::int32_t(m.p.size()));
     MESSAGE("50k-face torus: adjacency " << seconds_since(t0) << " s");
-    for (int which = 0; which < 4; ++which) {
+    for (int which = 0; which < 5; ++which) {
       const MeshTerms f{&m, &adj, which};
       t0 = now();
       const double plain = f(m.p);
