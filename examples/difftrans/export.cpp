@@ -20,13 +20,7 @@
 namespace difftrans::cli {
 
 std::vector<Vec3f> export_vertex_normals(const io::Mesh& mesh) {
-  std::vector<float> positions;
-  positions.reserve(mesh.positions.size() * 3);
-  for (const Vec3f& p : mesh.positions) positions.insert(positions.end(), {p.x, p.y, p.z});
-  std::vector<std::int32_t> triangles;
-  triangles.reserve(mesh.triangles.size() * 3);
-  for (const Vec3i& t : mesh.triangles) triangles.insert(triangles.end(), {t.x, t.y, t.z});
-  const scene::TriangleMesh m(std::move(positions), std::move(triangles));
+  const scene::TriangleMesh m(io::flat_positions(mesh), io::flat_triangles(mesh));
   std::vector<Vec3f> normals(mesh.positions.size());
   for (std::size_t v = 0; v < normals.size(); ++v) {
     const Vec3f n(m.vertex_normals[3 * v], m.vertex_normals[3 * v + 1], m.vertex_normals[3 * v + 2]);

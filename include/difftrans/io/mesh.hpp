@@ -24,6 +24,21 @@ struct Mesh {
   std::vector<Vec3i> triangles;
 };
 
+// The positions as x, y, z per vertex and the triangles as three indices
+// each: the flat arrays the tracer's meshes (scene::TriangleMesh) are made of.
+inline std::vector<float> flat_positions(const Mesh& mesh) {
+  std::vector<float> out;
+  out.reserve(mesh.positions.size() * 3);
+  for (const Vec3f& p : mesh.positions) out.insert(out.end(), {p.x, p.y, p.z});
+  return out;
+}
+inline std::vector<std::int32_t> flat_triangles(const Mesh& mesh) {
+  std::vector<std::int32_t> out;
+  out.reserve(mesh.triangles.size() * 3);
+  for (const Vec3i& t : mesh.triangles) out.insert(out.end(), {t.x, t.y, t.z});
+  return out;
+}
+
 // Axis-aligned box; empty when lo > hi.
 struct Box {
   Vec3d lo{std::numeric_limits<double>::infinity()};

@@ -33,13 +33,7 @@ struct NormalError {
 // The tracer's shading normal at each sample of `mesh` (unit length; the face
 // normal where the interpolated vertex normals cancel).
 inline std::vector<Vec3d> shading_normals_at(const io::Mesh& mesh, const std::vector<SurfaceSample>& samples) {
-  std::vector<float> positions;
-  positions.reserve(mesh.positions.size() * 3);
-  for (const Vec3f& p : mesh.positions) positions.insert(positions.end(), {p.x, p.y, p.z});
-  std::vector<std::int32_t> triangles;
-  triangles.reserve(mesh.triangles.size() * 3);
-  for (const Vec3i& t : mesh.triangles) triangles.insert(triangles.end(), {t.x, t.y, t.z});
-  const scene::TriangleMesh tm(std::move(positions), std::move(triangles));
+  const scene::TriangleMesh tm(io::flat_positions(mesh), io::flat_triangles(mesh));
   const auto vertex_normal = [&](std::int32_t v) {
     const float* n = tm.vertex_normals.data() + 3 * std::size_t(v);
     return Vec3d(n[0], n[1], n[2]);

@@ -19,13 +19,7 @@ namespace difftrans::render {
 // the frame asks for it) with the material's IoR and absorption; the
 // environment is a constant white until set_environment is called.
 inline HostScene make_host_scene(const io::Mesh& mesh, const io::Material& material, const std::string& name = "mesh") {
-  std::vector<float> positions;
-  positions.reserve(mesh.positions.size() * 3);
-  for (const auto& p : mesh.positions) positions.insert(positions.end(), {p.x, p.y, p.z});
-  std::vector<std::int32_t> triangles;
-  triangles.reserve(mesh.triangles.size() * 3);
-  for (const auto& t : mesh.triangles) triangles.insert(triangles.end(), {t.x, t.y, t.z});
-  HostScene s(std::move(positions), std::move(triangles), name);
+  HostScene s(io::flat_positions(mesh), io::flat_triangles(mesh), name);
   s.ior = float(material.ior);
   switch (material.absorption) {
     case io::AbsorptionType::none: break;
