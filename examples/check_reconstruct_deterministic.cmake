@@ -1,9 +1,12 @@
 # CTest script: `difftrans reconstruct` with one seed gives the same files
 # bit for bit on 1 and on 3 threads (fixed blocks of work, sums in a fixed
-# order); another seed gives another fit.
+# order); another seed gives another fit. With the vertices moving over
+# three levels of blur, reconstruct.json traces the surface against the true
+# mesh at the start and at the end of each level (materials.geometry_levels).
 # Arguments: -DCOMMAND=path/to/difftrans -DSCENE=scene directory -DWORK_DIR=folder
 set(options --stages environment,geometry,materials --grid 16 --iterations 20 --refine-iterations 10
-            --materials-iterations 12 --materials-freeze 4 --materials-rays 512 --materials-geometry --restart)
+            --materials-iterations 12 --materials-freeze 4 --materials-rays 512 --materials-geometry --materials-blur-halving 3
+            --restart)
 set(outputs mesh_stage1_raw.obj mesh_stage1.obj mesh_stage2.obj material_stage2.json absorption_stage2.json envmap.hdr
             geometry_stage2.png)
 foreach(run IN ITEMS 1 3)
@@ -25,6 +28,31 @@ foreach(f IN LISTS outputs)
     message(FATAL_ERROR "${f} differs between 1 and 3 threads with the same seed")
   endif()
 endforeach()
+# the level trace: iterations 4 (stage 1), 7 and 10 (new blurs), 12 (the end)
+file(READ ${WORK_DIR}/threads1/reconstruct.json record)
+string(JSON levels ERROR_VARIABLE missing GET "${record}" materials geometry_levels)
+if(missing)
+  message(FATAL_ERROR "reconstruct.json has no materials.geometry_levels: ${missing}")
+endif()
+string(JSON count LENGTH "${levels}")
+if(NOT count EQUAL 4)
+  message(FATAL_ERROR "materials.geometry_levels has ${count} entries, 4 expected: ${levels}")
+endif()
+set(expected_iterations 4 7 10 12)
+foreach(k RANGE 3)
+  string(JSON it GET "${levels}" ${k} iteration)
+  string(JSON after GET "${levels}" ${k} after)
+  string(JSON normals GET "${levels}" ${k} normal_error_deg mean)
+  string(JSON chamfer GET "${levels}" ${k} chamfer)
+  list(GET expected_iterations ${k} want)
+  if(NOT it EQUAL want OR NOT normals GREATER 0 OR NOT chamfer GREATER 0)
+    message(FATAL_ERROR "geometry_levels[${k}]: iteration ${it} (expected ${want}), normals ${normals}, chamfer ${chamfer}")
+  endif()
+endforeach()
+string(JSON first GET "${levels}" 0 after)
+if(NOT first STREQUAL "stage 1")
+  message(FATAL_ERROR "geometry_levels starts at '${first}', not the stage-1 mesh")
+endif()
 execute_process(COMMAND ${COMMAND} reconstruct ${SCENE} --out ${WORK_DIR}/seed6 ${options} --seed 6
                 RESULT_VARIABLE rc OUTPUT_QUIET ERROR_VARIABLE err)
 if(NOT rc EQUAL 0)

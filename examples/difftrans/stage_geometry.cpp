@@ -306,6 +306,12 @@ io::Json geometry_stage(const io::Scene& scene, RunFolder& folder, const Geometr
     io::write_mesh(final_path, to_io_mesh(pos, tris));
     j["remeshed"] = r.remeshed;
     j["remesh_target_length"] = r.target_length;
+    if (r.sizing_max > 0.0f) {
+      j["remesh_sizing"] = {{"min", r.sizing_min}, {"median", r.sizing_median}, {"max", r.sizing_max}};
+      progress("geometry: remeshed by curvature to edges of " + fixed(r.sizing_min, 4) + " to " +
+               fixed(r.sizing_max, 4) + " (median " + fixed(r.sizing_median, 4) + "), " +
+               std::to_string(pos.size() / 3) + " vertices");
+    }
     j["remesh_seconds"] = r.remesh_seconds;
     j["refine_seconds"] = r.refine_seconds;
     j["refine_total_seconds"] = seconds_since(t1);

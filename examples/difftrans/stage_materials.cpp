@@ -41,6 +41,55 @@
 
 namespace difftrans::cli {
 
+// The vertex phase against the true mesh, level by level: chamfer, F1 and
+// the shading-normal error at its start and whenever the large-steps λ or
+// the environment blur changes (the end of a level), and at its end. Inert
+// without a readable true mesh.
+class GeometryLevels {
+ public:
+  explicit GeometryLevels(const fs::path& truth) {
+    if (truth.empty() || !fs::exists(truth)) return;
+    try {
+      truth_ = io::read_mesh(truth);
+      active_ = true;
+    } catch (const std::exception& e) {
+      warn(std::string("materials: no level-by-level comparison with the true mesh: ") + e.what());
+    }
+  }
+  void record(const io::Mesh& m, int iteration, const std::string& after) {
+    if (!active_) return;
+    const auto g = metrics::evaluate_geometry(m, truth_);
+    const metrics::NormalError n = metrics::normal_error(m, truth_);
+    io::Json e = {{"iteration", iteration}, {"after", after}, {"chamfer", g.chamfer}, {"f1", g.f1},
+                  {"normal_error_deg", normal_error_json(n)}};
+    progress("materials: vertices at iteration " + std::to_string(iteration) + " (" + after + "): CD " +
+             fixed(g.chamfer, 7) + ", F1 " + fixed(g.f1, 4) + ", normals off by " + fixed(n.mean_deg, 2) +
+             " deg on average");
+    json_.push_back(std::move(e));
+  }
+  // After each moving step: a new λ or blur closes the level before it.
+  void step(const pipeline::Stage2Stats& st, const scene::TriangleMesh& mesh) {
+    if (!active_) return;
+    if (started_ && (st.lambda != lambda_ || st.environment_blur != blur_))
+      record(to_io_mesh(mesh.positions, mesh.triangles), st.iteration, label());
+    started_ = true;
+    lambda_ = st.lambda;
+    blur_ = st.environment_blur;
+  }
+  void finish(const scene::TriangleMesh& mesh, int iteration) {
+    if (active_ && started_) record(to_io_mesh(mesh.positions, mesh.triangles), iteration, label() + ", the end");
+  }
+  const io::Json& json() const { return json_; }
+
+ private:
+  std::string label() const { return "lambda " + fixed(lambda_, 2) + ", blur " + fixed(blur_, 2) + " texels"; }
+  io::Mesh truth_;
+  bool active_ = false, started_ = false;
+  double lambda_ = 0.0;
+  float blur_ = 0.0f;
+  io::Json json_ = io::Json::array();
+};
+
 // Lattice points per axis over the true mesh's box for the absorption error
 // (docs/metrics.md): about 48³ · (the object's share of its box) points.
 constexpr int absorption_error_lattice = 48;
@@ -176,6 +225,12 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
   }
   j["resumed_at"] = stage.iteration();
   const auto save = [&] { stage.save(ckpt_path, run_name); };
+  // With the vertices moving and a true mesh: the surface against the truth
+  // at the start of the vertex phase and at the end of each of its levels
+  // (λ, environment blur), logged and kept in materials.geometry_levels, to
+  // see which levels help (docs/stage2-diagnostics.md).
+  GeometryLevels levels(cfg.optimize_positions ? scene.gt.mesh : fs::path());
+  if (stage.iteration() <= cfg.freeze_geometry) levels.record(mesh, cfg.freeze_geometry, "stage 1");
   const auto t0 = clock::now();
   {  // the fit; outside it a signal ends the program at once (the checkpoint is complete)
     const StopSignals stop_signals;  // SIGINT / SIGTERM: save the checkpoint, then stop
@@ -190,6 +245,7 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
                  std::to_string(cfg.selection_iterations) + " iterations per candidate)");
       const bool choosing_depth = stage.iteration() == 0 && cfg.choose_depth && stage.depth_choice().is_null();
       const pipeline::Stage2Stats st = stage.step();
+      if (st.geometry_moving) levels.step(st, s.mesh);
       if (choosing) {
         const io::Json& c = stage.absorption_choice();
         progress("materials: absorption " + c.value("summary", std::string()) + ", in " +
@@ -229,6 +285,8 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
     }
     meter.finish();
   }
+  levels.finish(s.mesh, stage.iteration());
+  if (!levels.json().empty()) j["geometry_levels"] = levels.json();
   std::vector<double> color_curve, ior_curve;
   for (const pipeline::Stage2Stats& st : stage.history()) {
     color_curve.push_back(st.color);

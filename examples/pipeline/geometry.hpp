@@ -139,6 +139,12 @@ struct Stage1Config {
   // refinement
   float remesh_edge_length = 0.0f;  // <= 0: one grid cell (the box's longest side / resolution)
   int remesh_iterations = 5;
+  // Curvature-adaptive remeshing (geometry::curvature_sizing): edges up to
+  // remesh_max_length × the edge length above where the surface is flat
+  // enough that a chord strays at most remesh_tolerance × the edge length
+  // from it; 1: every edge the same length.
+  float remesh_max_length = 1.0f;
+  float remesh_tolerance = 0.025f;
   int refine_iterations = 1000;
   int refine_views_per_iteration = 8;
   float refine_lr = 3e-3f;          // AdamUniform on u = (I + λL) x
@@ -177,8 +183,18 @@ struct Stage1Config {
       c.carve_margin);
     v(Field{"weights", "", "loss weights (--weights NAME=VALUE,...)"}, c.weights);
     v(Field{"seed", "", "seed of the view batches"}, c.seed);
-    v(Field{"remesh_edge_length", "", "target edge length of the remeshing (<= 0: one grid cell)"}, c.remesh_edge_length);
+    v(Field{"remesh_edge_length", "--remesh-edge-length",
+            "target edge length of the remeshing, in the scene's units (<= 0: one grid cell)", -1, 100},
+      c.remesh_edge_length);
     v(Field{"remesh_iterations", "", "remeshing iterations"}, c.remesh_iterations);
+    v(Field{"remesh_max_length", "--remesh-max-length",
+            "curvature-adaptive remeshing: longest edge, as a multiple of the edge length (1: uniform edges)", 1, 100},
+      c.remesh_max_length);
+    v(Field{"remesh_tolerance", "--remesh-tolerance",
+            "curvature-adaptive remeshing: how far a chord may stray from the curved surface, as a fraction of the "
+            "edge length",
+            0, 100},
+      c.remesh_tolerance);
     v(Field{"refine_iterations", "--refine-iterations", "large-steps iterations after remeshing", 0, big},
       c.refine_iterations);
     v(Field{"refine_views_per_iteration", "--refine-batch", "training views per refinement iteration", 1, big},

@@ -46,6 +46,9 @@ struct Stage1RefineResult {
   std::vector<std::int32_t> triangles;
   std::vector<double> loss, mask;  // per refinement iteration
   float target_length = 0.0f;
+  // curvature-adaptive remeshing (remesh_max_length > 1): the targets asked
+  // of the input's vertices, their quantiles 0, 0.5 and 1 (0 when uniform)
+  float sizing_min = 0.0f, sizing_median = 0.0f, sizing_max = 0.0f;
   RemeshStats remesh_stats;
   bool remeshed = false;           // false when the input was not a manifold the remesher accepts
   double remesh_seconds = 0.0, refine_seconds = 0.0;
@@ -103,6 +106,22 @@ inline Stage1RefineResult stage1_refine(const std::vector<float>& positions, con
                          ? config.remesh_edge_length
                          : std::max(size.x, std::max(size.y, size.z)) / float(std::max(2, config.grid_resolution));
   ro.iterations = config.remesh_iterations;
+  CurvatureSizingResult sizing;
+  if (config.remesh_max_length > 1.0f) {
+    CurvatureSizing cs;
+    cs.min_length = ro.target_length;
+    cs.max_length = config.remesh_max_length * ro.target_length;
+    cs.tolerance = config.remesh_tolerance * ro.target_length;
+    sizing = curvature_sizing(positions, triangles, cs);
+    ro.sizing = &sizing.length;
+    if (!sizing.length.empty()) {
+      std::vector<float> sorted = sizing.length;
+      std::sort(sorted.begin(), sorted.end());
+      out.sizing_min = sorted.front();
+      out.sizing_median = sorted[sorted.size() / 2];
+      out.sizing_max = sorted.back();
+    }
+  }
   RemeshResult rr = remesh(positions, triangles, ro);
   out.target_length = ro.target_length;
   if (rr.report.ok() && !rr.triangles.empty()) {

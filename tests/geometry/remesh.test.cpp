@@ -2,7 +2,9 @@
 // BVH against brute force, then remeshing spot, a stretched icosphere, a
 // stretched box and a torus: edge lengths concentrate around L, the result
 // stays a closed 2-manifold of the same genus, stays close to the input both
-// ways, and valences move toward 6.
+// ways, and valences move toward 6. Curvature sizing: the curvature of spheres
+// (clean and noisy) and of a torus's tube, and a remeshing whose edges follow
+// it.
 #include "difftrans/geometry/remesh.hpp"
 
 #include <doctest/doctest.h>
@@ -309,4 +311,116 @@ TEST_CASE("the building blocks one at a time") {
   project_to_surface(m, sphere);
   for (int v = 0; v < m.num_vertices(); ++v)
     if (!m.vertex_deleted(v)) CHECK(glm::length(m.position(v)) == doctest::Approx(1.0).epsilon(2e-3));
+}
+
+namespace {
+
+// Two shapes as one mesh: b's vertices shifted by `offset`.
+dt_test::Shape joined(const dt_test::Shape& a, const dt_test::Shape& b, const vec3& offset) {
+  dt_test::Shape s = a;
+  const std::int32_t base = std::int32_t(a.positions.size() / 3);
+  for (std::size_t i = 0; i < b.positions.size(); i += 3)
+    s.positions.insert(s.positions.end(), {b.positions[i] + offset.x, b.positions[i + 1] + offset.y,
+                                           b.positions[i + 2] + offset.z});
+  for (std::int32_t t : b.triangles) s.triangles.push_back(t + base);
+  return s;
+}
+
+double median(std::vector<float> v) {
+  std::nth_element(v.begin(), v.begin() + std::ptrdiff_t(v.size() / 2), v.end());
+  return double(v[v.size() / 2]);
+}
+
+}  // namespace
+
+TEST_CASE("curvature sizing: the curvature of spheres and a torus's tube, with and without noise") {
+  CurvatureSizing o;
+  o.min_length = 0.01f;
+  o.max_length = 1.0f;
+  o.tolerance = 1e-3f;
+  for (const float r : {0.5f, 2.0f}) {
+    const dt_test::Shape s = dt_test::make_icosphere(r, 4);
+    const CurvatureSizingResult c = curvature_sizing(s.positions, s.triangles, o);
+    INFO("radius " << r);
+    for (float k : c.curvature) CHECK(k == doctest::Approx(1.0f / r).epsilon(0.05));
+    // L = sqrt(6 tol / κ − 3 tol²), within [min, max]
+    const float expect = std::clamp(std::sqrt(6.0f * o.tolerance * r - 3.0f * o.tolerance * o.tolerance),
+                                    o.min_length, o.max_length);
+    for (float l : c.length) CHECK(l == doctest::Approx(expect).epsilon(0.05));
+  }
+  // vertex-scale radial noise (a sixth of an edge, as a FlexiCubes sphere
+  // has): the upper quartile of the normals' turning stays near 1 / r where
+  // the largest would not
+  dt_test::Shape noisy = dt_test::make_icosphere(0.5f, 4);
+  std::mt19937 rng(7);
+  std::normal_distribution<float> jitter(0.0f, 1.0f);
+  const float edge = 0.5f * 1.05f / 16.0f;  // about an icosphere's edge at 4 levels
+  for (std::size_t i = 0; i < noisy.positions.size(); i += 3) {
+    const vec3 p = vertex(noisy.positions, std::int32_t(i / 3));
+    const vec3 q = p * (1.0f + jitter(rng) * edge / 6.0f / 0.5f);
+    noisy.positions[i] = q.x;
+    noisy.positions[i + 1] = q.y;
+    noisy.positions[i + 2] = q.z;
+  }
+  const CurvatureSizingResult c = curvature_sizing(noisy.positions, noisy.triangles, o);
+  MESSAGE("noisy sphere of radius 0.5: median curvature " << median(c.curvature));
+  CHECK(median(c.curvature) == doctest::Approx(2.0).epsilon(0.3));
+  // a torus's tube (radius 0.3) curves 3.3 around it: the quartile measures
+  // the largest curvature, not the mean
+  const dt_test::Shape t = dt_test::make_torus(96, 32, 1.0f, 0.3f);
+  const CurvatureSizingResult ct = curvature_sizing(t.positions, t.triangles, o);
+  MESSAGE("torus, tube radius 0.3: median curvature " << median(ct.curvature));
+  CHECK(median(ct.curvature) > 0.8 / 0.3);
+  CHECK(median(ct.curvature) < 1.3 / 0.3);
+}
+
+TEST_CASE("curvature-adaptive remeshing: long edges where flat, short where curved, and it ends") {
+  // a sphere of radius 1 beside one of radius 0.1: with a chord tolerance of
+  // 0.002 the large one asks for edges of 0.11 (clamped to 0.08), the small
+  // one for 0.035 (clamped up to 0.04)
+  const dt_test::Shape s = joined(dt_test::make_icosphere(1.0f, 4), dt_test::make_icosphere(0.1f, 4), vec3(3, 0, 0));
+  CurvatureSizing cs;
+  cs.min_length = 0.04f;
+  cs.max_length = 0.08f;
+  cs.tolerance = 0.002f;
+  const CurvatureSizingResult sizing = curvature_sizing(s.positions, s.triangles, cs);
+  RemeshOptions o;
+  o.target_length = cs.min_length;
+  o.iterations = 10;
+  o.sizing = &sizing.length;
+  const RemeshResult r = remesh(s.positions, s.triangles, o);
+  REQUIRE(r.report.ok());
+  CHECK(closed_manifold_euler(r.positions, r.triangles) == 4);  // two spheres
+  double big = 0.0, small = 0.0;
+  int nb = 0, ns = 0;
+  for (std::size_t f = 0; f < r.triangles.size() / 3; ++f)
+    for (int k = 0; k < 3; ++k) {
+      const vec3 a = vertex(r.positions, r.triangles[3 * f + std::size_t(k)]);
+      const vec3 b = vertex(r.positions, r.triangles[3 * f + std::size_t(k + 1) % 3]);
+      if (a.x > 2.0f) {
+        small += glm::length(a - b);
+        ++ns;
+      } else {
+        big += glm::length(a - b);
+        ++nb;
+      }
+    }
+  big /= nb;
+  small /= ns;
+  MESSAGE("mean edge: large sphere " << big << ", small sphere " << small << "; " << r.positions.size() / 3
+                                     << " vertices, splits " << r.stats.splits << ", collapses " << r.stats.collapses);
+  CHECK(big == doctest::Approx(0.08).epsilon(0.15));
+  CHECK(small == doctest::Approx(0.04).epsilon(0.15));
+  // the vertices stay on the input
+  CHECK(max_distance(r.positions, s.positions, s.triangles) < 1e-3);
+  // a uniform sizing remeshes as the uniform target does (its splits come one
+  // per edge and pass, so not vertex for vertex): as many vertices within 10 %
+  std::vector<float> same(s.positions.size() / 3, 0.06f);
+  RemeshOptions u;
+  u.target_length = 0.06f;
+  u.iterations = 3;
+  const RemeshResult plain = remesh(s.positions, s.triangles, u);
+  u.sizing = &same;
+  const RemeshResult sized = remesh(s.positions, s.triangles, u);
+  CHECK(sized.positions.size() == doctest::Approx(double(plain.positions.size())).epsilon(0.1));
 }

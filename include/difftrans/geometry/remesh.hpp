@@ -4,9 +4,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <limits>
 #include <numeric>
+#include <utility>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -61,6 +63,8 @@ class ClosestPointTree {
   }
 
   std::int32_t num_triangles() const { return std::int32_t(tri_.size() / 3); }
+  // Vertex k (0..2) of triangle t, as an index into the positions given.
+  std::int32_t triangle_vertex(std::int32_t t, int k) const { return tri_[3 * std::size_t(t) + std::size_t(k)]; }
 
   Result closest(const glm::vec3& p) const {
     Result best;
@@ -165,6 +169,126 @@ class ClosestPointTree {
   std::vector<Node> nodes_;
 };
 
+// ------------------------------------------------------------ curvature sizing
+
+// How long the edges of a remeshing may be, per vertex of a triangle mesh,
+// from its curvature: the longest chord that strays at most `tolerance` from a
+// circle of the surface's largest curvature κ there, L = sqrt(6 tol / κ −
+// 3 tol²), within [min_length, max_length]. So flat and gently curved parts
+// get long edges (fewer vertices for the silhouettes and photographs to
+// place, and less room for noise between them) and thin or sharply curved
+// ones keep short edges.
+//
+// κ is measured at the scale of `rings` rings of neighbours, not of one edge:
+// each vertex's normal is the mean of the area-weighted vertex normals within
+// `rings` rings (averaging over an arc of a circle keeps the normal radial, so
+// a cylinder's or a sphere's curvature survives it while noise at the scale
+// of an edge averages out), and κ at a vertex is the largest turning of those
+// normals per unit distance to the vertices up to `rings` rings away: the
+// upper quartile of those rates, which on a cylinder of radius r is 0.92 / r
+// (the rate along a direction at angle θ to the circumference is cos θ / r)
+// and on a sphere 1 / r, while the largest rate would follow the noise (on a
+// FlexiCubes sphere of radius 0.5, κ of median 2.4 by the quartile, 3.8 by
+// the largest).
+struct CurvatureSizing {
+  float min_length = 0.0f;
+  float max_length = 0.0f;
+  float tolerance = 0.0f;
+  int rings = 3;
+};
+
+struct CurvatureSizingResult {
+  std::vector<float> length;     // target edge length per vertex
+  std::vector<float> curvature;  // κ per vertex (1 / the scene's units)
+};
+
+inline CurvatureSizingResult curvature_sizing(const std::vector<float>& positions,
+                                              const std::vector<std::int32_t>& triangles, const CurvatureSizing& o) {
+  const std::size_t nv = positions.size() / 3;
+  const auto at = [&](std::size_t v) { return glm::vec3(positions[3 * v], positions[3 * v + 1], positions[3 * v + 2]); };
+  std::vector<glm::vec3> normal(nv, glm::vec3(0.0f));
+  std::vector<std::vector<std::int32_t>> neighbours(nv);
+  for (std::size_t f = 0; f + 2 < triangles.size(); f += 3) {
+    const std::int32_t t[3] = {triangles[f], triangles[f + 1], triangles[f + 2]};
+    const glm::vec3 an = glm::cross(at(std::size_t(t[1])) - at(std::size_t(t[0])), at(std::size_t(t[2])) - at(std::size_t(t[0])));
+    for (int k = 0; k < 3; ++k) {
+      normal[std::size_t(t[k])] += an;
+      neighbours[std::size_t(t[k])].push_back(t[(k + 1) % 3]);
+      neighbours[std::size_t(t[k])].push_back(t[(k + 2) % 3]);
+    }
+  }
+  for (auto& n : neighbours) {
+    std::sort(n.begin(), n.end());
+    n.erase(std::unique(n.begin(), n.end()), n.end());
+  }
+  for (glm::vec3& n : normal) {
+    const float l = glm::length(n);
+    n = l > 0.0f ? n / l : glm::vec3(0.0f);
+  }
+  // the vertices within `rings` rings of v (v first), by breadth-first search
+  const int rings = std::max(1, o.rings);
+  const auto ball = [&](std::size_t v, std::vector<std::int32_t>& out, std::vector<std::int32_t>& mark,
+                        std::int32_t stamp) {
+    out.assign(1, std::int32_t(v));
+    mark[v] = stamp;
+    std::size_t begin = 0;
+    for (int r = 0; r < rings; ++r) {
+      const std::size_t end = out.size();
+      for (std::size_t i = begin; i < end; ++i)
+        for (std::int32_t w : neighbours[std::size_t(out[i])])
+          if (mark[std::size_t(w)] != stamp) {
+            mark[std::size_t(w)] = stamp;
+            out.push_back(w);
+          }
+      begin = end;
+    }
+  };
+  std::vector<glm::vec3> smooth(nv, glm::vec3(0.0f));
+  CurvatureSizingResult r;
+  r.curvature.assign(nv, 0.0f);
+  r.length.assign(nv, o.max_length);
+  const int chunks = 64;
+  const std::int64_t per = std::int64_t((nv + std::size_t(chunks) - 1) / std::size_t(chunks));
+  // one pass per step: the smoothed normals, then the curvature from them
+  for (int pass = 0; pass < 2; ++pass)
+    parallel_for(chunks, 1, [&](std::int64_t c0, std::int64_t c1, int) {
+      std::vector<std::int32_t> near, mark(nv, -1);
+      std::vector<float> rates;
+      for (std::int64_t c = c0; c < c1; ++c)
+        for (std::int64_t i = c * per; i < std::min<std::int64_t>(std::int64_t(nv), (c + 1) * per); ++i) {
+          const std::size_t v = std::size_t(i);
+          ball(v, near, mark, std::int32_t(i));
+          if (pass == 0) {
+            glm::vec3 sum(0.0f);
+            for (std::int32_t w : near) sum += normal[std::size_t(w)];
+            const float l = glm::length(sum);
+            smooth[v] = l > 0.0f ? sum / l : glm::vec3(0.0f);
+            continue;
+          }
+          rates.clear();
+          for (std::size_t k = 1; k < near.size(); ++k) {
+            const std::size_t w = std::size_t(near[k]);
+            const float d = glm::length(at(w) - at(v));
+            const float c = glm::clamp(glm::dot(smooth[v], smooth[w]), -1.0f, 1.0f);
+            if (d > 0.0f) rates.push_back(std::acos(c) / d);
+          }
+          float kappa = 0.0f;
+          if (!rates.empty()) {
+            const auto q = rates.begin() + std::ptrdiff_t(float(rates.size() - 1) * 0.75f);
+            std::nth_element(rates.begin(), q, rates.end());
+            kappa = *q;
+          }
+          r.curvature[v] = kappa;
+          const float tol = o.tolerance;
+          const float squared = kappa > 0.0f ? 6.0f * tol / kappa - 3.0f * tol * tol
+                                             : std::numeric_limits<float>::infinity();
+          const float l = squared > 0.0f ? std::sqrt(squared) : 0.0f;
+          r.length[v] = std::clamp(l, o.min_length, std::max(o.min_length, o.max_length));
+        }
+    });
+  return r;
+}
+
 // ------------------------------------------------------------ remeshing steps
 
 struct RemeshOptions {
@@ -173,6 +297,11 @@ struct RemeshOptions {
   bool project = true;          // back onto the input surface after each relaxation
   float relaxation = 1.0f;      // fraction of the tangential move toward the centroid
   float collapse_min_cos = 0.5f;  // a collapse may turn a face's normal by at most acos of this
+  // Optional target length per vertex of the surface projected onto (e.g.
+  // curvature_sizing below); it then replaces target_length: an edge's target
+  // is the smaller of its ends', each end's that of the surface triangle
+  // closest to it (the smallest of the triangle's three). Needs a surface.
+  const std::vector<float>* sizing = nullptr;
 };
 
 struct RemeshStats {
@@ -205,6 +334,31 @@ inline int split_long_edges(HalfEdgeMesh& m, float high) {
   return n;
 }
 
+// The same with a target length per vertex (`length`, grown as vertices are
+// added: a new vertex takes its edge's target): each edge there was at the
+// start that is longer than 4/3 of the smaller target of its ends is split
+// once. Not the edges the splits make: a new vertex carries a shorter target
+// into a region of longer ones, and around a vertex of such a region the
+// edges to the new vertices can stay just above the threshold split after
+// split without end (seen on a FlexiCubes bunny). remesh() calls this once per
+// iteration, so an edge many times too long is halved on each.
+inline int split_long_edges(HalfEdgeMesh& m, std::vector<float>& length) {
+  int n = 0;
+  const std::int32_t edges = m.num_edges();
+  for (std::int32_t e = 0; e < edges; ++e) {
+    if (m.edge_deleted(e)) continue;
+    const std::int32_t h = HalfEdgeMesh::halfedge(e);
+    const std::int32_t a = m.from(h), b = m.to(h);
+    const float target = std::min(length[std::size_t(a)], length[std::size_t(b)]);
+    if (!(m.edge_length(e) > 4.0f / 3.0f * target)) continue;
+    const std::int32_t v = m.split_edge(e, 0.5f * (m.position(a) + m.position(b)));
+    if (length.size() <= std::size_t(v)) length.resize(std::size_t(v) + 1, target);
+    length[std::size_t(v)] = target;
+    ++n;
+  }
+  return n;
+}
+
 namespace detail {
 
 // Whether every edge at a or b would stay within `high` once both sit at p.
@@ -224,16 +378,15 @@ inline bool collapse_keeps_short(const HalfEdgeMesh& m, std::int32_t a, std::int
   return ok;
 }
 
-}  // namespace detail
-
-// Collapses edges shorter than `low` (to their midpoint; a boundary vertex
-// stays where it is and an interior one joins it), unless that would make an
-// edge longer than `high`, break the link condition or turn a face by more
-// than acos(min_cos).
-inline int collapse_short_edges(HalfEdgeMesh& m, float low, float high, float min_cos = 0.5f) {
+// Collapse pass with the thresholds (low, high) of each edge from bounds(a, b).
+template <class Bounds>
+inline int collapse_short_edges_by(HalfEdgeMesh& m, Bounds&& bounds, float min_cos) {
   int n = 0;
   for (std::int32_t e = 0; e < m.num_edges(); ++e) {
-    if (m.edge_deleted(e) || !(m.edge_length(e) < low)) continue;
+    if (m.edge_deleted(e)) continue;
+    const std::int32_t h0 = HalfEdgeMesh::halfedge(e);
+    const auto [low, high] = bounds(m.from(h0), m.to(h0));
+    if (!(m.edge_length(e) < low)) continue;
     for (int side = 0; side < 2; ++side) {
       const std::int32_t h = HalfEdgeMesh::halfedge(e, side);  // from(h) is removed, to(h) kept
       const std::int32_t a = m.from(h), b = m.to(h);
@@ -248,6 +401,30 @@ inline int collapse_short_edges(HalfEdgeMesh& m, float low, float high, float mi
     }
   }
   return n;
+}
+
+}  // namespace detail
+
+// Collapses edges shorter than `low` (to their midpoint; a boundary vertex
+// stays where it is and an interior one joins it), unless that would make an
+// edge longer than `high`, break the link condition or turn a face by more
+// than acos(min_cos).
+inline int collapse_short_edges(HalfEdgeMesh& m, float low, float high, float min_cos = 0.5f) {
+  return detail::collapse_short_edges_by(m, [low, high](std::int32_t, std::int32_t) { return std::pair(low, high); },
+                                         min_cos);
+}
+
+// The same with a target length per vertex: an edge is collapsed when it is
+// shorter than 4/5 of the smaller target of its ends, unless an edge would
+// grow beyond 4/3 of it.
+inline int collapse_short_edges(HalfEdgeMesh& m, const std::vector<float>& length, float min_cos = 0.5f) {
+  return detail::collapse_short_edges_by(
+      m,
+      [&length](std::int32_t a, std::int32_t b) {
+        const float target = std::min(length[std::size_t(a)], length[std::size_t(b)]);
+        return std::pair(4.0f / 5.0f * target, 4.0f / 3.0f * target);
+      },
+      min_cos);
 }
 
 // Flips interior edges where that brings the valences of the four vertices
@@ -322,15 +499,41 @@ inline void project_to_surface(HalfEdgeMesh& m, const ClosestPointTree& surface)
   });
 }
 
+// The target length of each vertex of m: that of the surface triangle
+// closest to it (the smallest of its vertices' `sizing`).
+inline std::vector<float> target_lengths(const HalfEdgeMesh& m, const ClosestPointTree& surface,
+                                         const std::vector<float>& sizing) {
+  std::vector<float> length(std::size_t(m.num_vertices()), 0.0f);
+  parallel_for(m.num_vertices(), 256, [&](std::int64_t begin, std::int64_t end, int) {
+    for (std::int64_t i = begin; i < end; ++i) {
+      const std::int32_t v = std::int32_t(i);
+      if (m.vertex_deleted(v)) continue;
+      const ClosestPointTree::Result r = surface.closest(m.position(v));
+      if (r.triangle < 0) continue;
+      float l = std::numeric_limits<float>::infinity();
+      for (int k = 0; k < 3; ++k) l = std::min(l, sizing[std::size_t(surface.triangle_vertex(r.triangle, k))]);
+      length[std::size_t(v)] = l;
+    }
+  });
+  return length;
+}
+
 // The whole loop on a half-edge mesh: `iterations` rounds of split, collapse,
 // flip, relax and project onto `surface` (when given). Compacts at the end.
 inline RemeshStats remesh(HalfEdgeMesh& m, const ClosestPointTree* surface, const RemeshOptions& o) {
   RemeshStats stats;
   const float L = o.target_length > 0.0f ? o.target_length : mean_edge_length(m);
   const float high = 4.0f / 3.0f * L, low = 4.0f / 5.0f * L;
+  const bool adaptive = o.sizing != nullptr && surface != nullptr;
   for (int it = 0; it < o.iterations; ++it) {
-    stats.splits += split_long_edges(m, high);
-    stats.collapses += collapse_short_edges(m, low, high, o.collapse_min_cos);
+    if (adaptive) {
+      std::vector<float> length = target_lengths(m, *surface, *o.sizing);
+      stats.splits += split_long_edges(m, length);
+      stats.collapses += collapse_short_edges(m, length, o.collapse_min_cos);
+    } else {
+      stats.splits += split_long_edges(m, high);
+      stats.collapses += collapse_short_edges(m, low, high, o.collapse_min_cos);
+    }
     stats.flips += equalize_valences(m);
     tangential_relaxation(m, o.relaxation);
     if (surface && o.project) project_to_surface(m, *surface);
