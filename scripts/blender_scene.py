@@ -43,6 +43,9 @@ import sys
 import time
 import zlib
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from obj_file import ObjError, read_obj  # noqa: E402 (after the path)
+
 import bpy
 from mathutils import Matrix, Vector
 
@@ -60,38 +63,6 @@ def read_json(path):
         fail(f"{path}: {e.strerror}")
     except json.JSONDecodeError as e:
         fail(f"{path}:{e.lineno}: {e.msg}")
-
-
-def read_obj(path):
-    """Vertices and triangles of a Wavefront OBJ (polygons fanned), 0-based."""
-    verts, tris = [], []
-    try:
-        f = open(path)
-    except OSError as e:
-        fail(f"{path}: {e.strerror}")
-    with f:
-        for number, line in enumerate(f, 1):
-            parts = line.split()
-            if not parts:
-                continue
-            try:
-                if parts[0] == "v":
-                    verts.append(tuple(float(x) for x in parts[1:4]))
-                elif parts[0] == "f":
-                    idx = []
-                    for token in parts[1:]:
-                        i = int(token.split("/")[0])
-                        idx.append(i - 1 if i > 0 else len(verts) + i)
-                    for k in range(1, len(idx) - 1):
-                        tris.append((idx[0], idx[k], idx[k + 1]))
-            except ValueError:
-                fail(f"{path}:{number}: cannot read '{line.strip()}'")
-    for t in tris:
-        if any(i < 0 or i >= len(verts) for i in t):
-            fail(f"{path}: a face refers to a vertex that does not exist ({len(verts)} vertices)")
-    if not tris:
-        fail(f"{path}: no faces")
-    return verts, tris
 
 
 def vertex_normals(verts, tris):
@@ -121,7 +92,10 @@ def write_png_gray(path, width, height, rows):
 
 
 def build_object(scene_dir, material):
-    verts, tris = read_obj(os.path.join(scene_dir, "gt", "mesh.obj"))
+    try:
+        verts, tris = read_obj(os.path.join(scene_dir, "gt", "mesh.obj"))
+    except ObjError as e:
+        fail(str(e))
     mesh = bpy.data.meshes.new("object")
     mesh.from_pydata(verts, [], tris)
     mesh.validate(clean_customdata=False)

@@ -15,27 +15,12 @@ random with a fixed seed.
 """
 import argparse
 import math
+import os
 import random
 import sys
 
-
-def read_obj(path):
-    vertices, faces = [], []
-    with open(path) as f:
-        for number, line in enumerate(f, 1):
-            parts = line.split()
-            if not parts:
-                continue
-            try:
-                if parts[0] == "v":
-                    vertices.append(tuple(float(x) for x in parts[1:4]))
-                elif parts[0] == "f":
-                    faces.append([int(t.split("/")[0]) - 1 for t in parts[1:]])
-            except ValueError:
-                sys.exit(f"sphere_noise: {path}:{number}: cannot read '{line.strip()}'")
-    if not vertices:
-        sys.exit(f"sphere_noise: {path} has no vertices")
-    return vertices, faces
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from obj_file import ObjError, read_obj  # noqa: E402 (after the path)
 
 
 def main():
@@ -49,7 +34,10 @@ def main():
     p.add_argument("--projected", help="write the mesh moved radially onto the sphere here")
     a = p.parse_args()
     c = tuple(float(x) for x in a.center.split(","))
-    vertices, faces = read_obj(a.mesh)
+    try:
+        vertices, faces = read_obj(a.mesh)
+    except ObjError as e:
+        sys.exit(f"sphere_noise: {e}")
     offset = [tuple(v[i] - c[i] for i in range(3)) for v in vertices]
     radius = [math.sqrt(sum(x * x for x in o)) for o in offset]
     if min(radius) <= 0.0:

@@ -144,7 +144,7 @@ struct Stage1Config {
   // enough that a chord strays at most remesh_tolerance × the edge length
   // from it; 1: every edge the same length.
   float remesh_max_length = 1.0f;
-  float remesh_tolerance = 0.025f;
+  float remesh_tolerance = 0.05f;
   int refine_iterations = 1000;
   int refine_views_per_iteration = 8;
   float refine_lr = 3e-3f;          // AdamUniform on u = (I + λL) x
