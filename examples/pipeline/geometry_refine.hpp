@@ -12,6 +12,7 @@
 #include <random>
 #include <vector>
 
+#include "difftrans/geometry/curvature_sizing.hpp"
 #include "difftrans/geometry/remesh.hpp"
 #include "difftrans/geometry/topology.hpp"
 #include "difftrans/losses/mask.hpp"
