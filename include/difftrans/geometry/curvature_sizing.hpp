@@ -12,6 +12,7 @@
 #include <glm/glm.hpp>
 
 #include "difftrans/core/parallel.hpp"
+#include "difftrans/geometry/topology.hpp"
 
 namespace difftrans::geometry {
 
@@ -51,85 +52,73 @@ inline CurvatureSizingResult curvature_sizing(const std::vector<float>& position
   const std::size_t nv = positions.size() / 3;
   const auto at = [&](std::size_t v) { return glm::vec3(positions[3 * v], positions[3 * v + 1], positions[3 * v + 2]); };
   std::vector<glm::vec3> normal(nv, glm::vec3(0.0f));
-  std::vector<std::vector<std::int32_t>> neighbours(nv);
   for (std::size_t f = 0; f + 2 < triangles.size(); f += 3) {
-    const std::int32_t t[3] = {triangles[f], triangles[f + 1], triangles[f + 2]};
-    const glm::vec3 an = glm::cross(at(std::size_t(t[1])) - at(std::size_t(t[0])), at(std::size_t(t[2])) - at(std::size_t(t[0])));
-    for (int k = 0; k < 3; ++k) {
-      normal[std::size_t(t[k])] += an;
-      neighbours[std::size_t(t[k])].push_back(t[(k + 1) % 3]);
-      neighbours[std::size_t(t[k])].push_back(t[(k + 2) % 3]);
-    }
-  }
-  for (auto& n : neighbours) {
-    std::sort(n.begin(), n.end());
-    n.erase(std::unique(n.begin(), n.end()), n.end());
+    const std::size_t a = std::size_t(triangles[f]), b = std::size_t(triangles[f + 1]), c = std::size_t(triangles[f + 2]);
+    const glm::vec3 an = glm::cross(at(b) - at(a), at(c) - at(a));
+    normal[a] += an;
+    normal[b] += an;
+    normal[c] += an;
   }
   for (glm::vec3& n : normal) {
     const float l = glm::length(n);
     n = l > 0.0f ? n / l : glm::vec3(0.0f);
   }
-  // the vertices within `rings` rings of v (v first), by breadth-first search
+  const MeshAdjacency adj = mesh_adjacency(triangles, std::int32_t(nv));
   const int rings = std::max(1, o.rings);
-  const auto ball = [&](std::size_t v, std::vector<std::int32_t>& out, std::vector<std::int32_t>& mark,
-                        std::int32_t stamp) {
-    out.assign(1, std::int32_t(v));
-    mark[v] = stamp;
-    std::size_t begin = 0;
-    for (int r = 0; r < rings; ++r) {
-      const std::size_t end = out.size();
-      for (std::size_t i = begin; i < end; ++i)
-        for (std::int32_t w : neighbours[std::size_t(out[i])])
-          if (mark[std::size_t(w)] != stamp) {
-            mark[std::size_t(w)] = stamp;
-            out.push_back(w);
-          }
-      begin = end;
-    }
-  };
+  // pass 1: each vertex's ball (the vertices within `rings` rings, itself
+  // first, by breadth-first search) and its mean normal
+  std::vector<std::vector<std::int32_t>> ball(nv);
   std::vector<glm::vec3> smooth(nv, glm::vec3(0.0f));
+  parallel_for(std::int64_t(nv), 256, [&](std::int64_t begin, std::int64_t end, int) {
+    for (std::int64_t i = begin; i < end; ++i) {
+      std::vector<std::int32_t>& near = ball[std::size_t(i)];
+      near.assign(1, std::int32_t(i));
+      for (int r = 0, from = 0; r < rings; ++r) {
+        const int to = int(near.size());
+        for (int k = from; k < to; ++k) {
+          const std::size_t u = std::size_t(near[std::size_t(k)]);
+          for (std::int32_t e = adj.vv_offsets[u]; e < adj.vv_offsets[u + 1]; ++e) {
+            const std::int32_t w = adj.vv_neighbors[std::size_t(e)];
+            if (std::find(near.begin(), near.end(), w) == near.end()) near.push_back(w);
+          }
+        }
+        from = to;
+      }
+      glm::vec3 sum(0.0f);
+      for (std::int32_t w : near) sum += normal[std::size_t(w)];
+      const float l = glm::length(sum);
+      smooth[std::size_t(i)] = l > 0.0f ? sum / l : glm::vec3(0.0f);
+    }
+  });
+  // pass 2: κ from the mean normals' turning over each ball, and the length
   CurvatureSizingResult r;
   r.curvature.assign(nv, 0.0f);
   r.length.assign(nv, o.max_length);
-  const int chunks = 64;
-  const std::int64_t per = std::int64_t((nv + std::size_t(chunks) - 1) / std::size_t(chunks));
-  // one pass per step: the smoothed normals, then the curvature from them
-  for (int pass = 0; pass < 2; ++pass)
-    parallel_for(chunks, 1, [&](std::int64_t c0, std::int64_t c1, int) {
-      std::vector<std::int32_t> near, mark(nv, -1);
-      std::vector<float> rates;
-      for (std::int64_t c = c0; c < c1; ++c)
-        for (std::int64_t i = c * per; i < std::min<std::int64_t>(std::int64_t(nv), (c + 1) * per); ++i) {
-          const std::size_t v = std::size_t(i);
-          ball(v, near, mark, std::int32_t(i));
-          if (pass == 0) {
-            glm::vec3 sum(0.0f);
-            for (std::int32_t w : near) sum += normal[std::size_t(w)];
-            const float l = glm::length(sum);
-            smooth[v] = l > 0.0f ? sum / l : glm::vec3(0.0f);
-            continue;
-          }
-          rates.clear();
-          for (std::size_t k = 1; k < near.size(); ++k) {
-            const std::size_t w = std::size_t(near[k]);
-            const float d = glm::length(at(w) - at(v));
-            const float c = glm::clamp(glm::dot(smooth[v], smooth[w]), -1.0f, 1.0f);
-            if (d > 0.0f) rates.push_back(std::acos(c) / d);
-          }
-          float kappa = 0.0f;
-          if (!rates.empty()) {
-            const auto q = rates.begin() + std::ptrdiff_t(float(rates.size() - 1) * 0.75f);
-            std::nth_element(rates.begin(), q, rates.end());
-            kappa = *q;
-          }
-          r.curvature[v] = kappa;
-          const float tol = o.tolerance;
-          const float squared = kappa > 0.0f ? 6.0f * tol / kappa - 3.0f * tol * tol
-                                             : std::numeric_limits<float>::infinity();
-          const float l = squared > 0.0f ? std::sqrt(squared) : 0.0f;
-          r.length[v] = std::clamp(l, o.min_length, std::max(o.min_length, o.max_length));
-        }
-    });
+  parallel_for(std::int64_t(nv), 256, [&](std::int64_t begin, std::int64_t end, int) {
+    std::vector<float> rates;
+    for (std::int64_t i = begin; i < end; ++i) {
+      const std::size_t v = std::size_t(i);
+      rates.clear();
+      for (std::size_t k = 1; k < ball[v].size(); ++k) {
+        const std::size_t w = std::size_t(ball[v][k]);
+        const float d = glm::length(at(w) - at(v));
+        const float c = glm::clamp(glm::dot(smooth[v], smooth[w]), -1.0f, 1.0f);
+        if (d > 0.0f) rates.push_back(std::acos(c) / d);
+      }
+      float kappa = 0.0f;
+      if (!rates.empty()) {
+        const auto q = rates.begin() + std::ptrdiff_t(float(rates.size() - 1) * 0.75f);
+        std::nth_element(rates.begin(), q, rates.end());
+        kappa = *q;
+      }
+      r.curvature[v] = kappa;
+      const float tol = o.tolerance;
+      const float squared =
+          kappa > 0.0f ? 6.0f * tol / kappa - 3.0f * tol * tol : std::numeric_limits<float>::infinity();
+      r.length[v] = std::clamp(squared > 0.0f ? std::sqrt(squared) : 0.0f, o.min_length,
+                               std::max(o.min_length, o.max_length));
+    }
+  });
   return r;
 }
 
