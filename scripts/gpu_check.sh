@@ -7,8 +7,13 @@
 #   bash scripts/gpu_check.sh [PREFIX]     PREFIX: where the dependencies are
 #                                          installed, if not in /usr
 # Environment: BUILD (build folder, default build/gpu), CUDA_ARCH (default 90),
-# TARGETS (default: the device tests and bench_device_speed), STEPS (default:
-# "tests bench syntax"). The syntax step compiles every header alone and
+# TARGETS (default: the device tests, bench_device_speed and the difftrans
+# command), STEPS (default: "tests command bench syntax"; "profile" runs Nsight
+# Compute on a small device pass), DEVICE (what the
+# command step passes to --device; default cuda), RENDER_TEST_ARGS (e.g.
+# "quick": the device render test at 64² only), COMMAND_DIR (where the command
+# step works; default $LOG_DIR/command), DEADLINE (epoch seconds: steps not
+# begun by then are skipped). The syntax step compiles every header alone and
 # every source file with the build's C++ compiler (-fsyntax-only) and prints
 # what names it misses: a newer compiler's standard library includes less
 # behind the scenes. The bench step writes speed.jsonl: the four meshes at 512²
@@ -27,20 +32,26 @@ args=(-S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DDIFFTRANS_CUD
 [ -n "$prefix" ] && args+=(-DCMAKE_PREFIX_PATH="$prefix")
 t0=$(date +%s)
 cmake "${args[@]}" >"$logs/configure.txt" 2>&1 || { tail -30 "$logs/configure.txt"; exit 1; }
-targets=${TARGETS:-test_cuda_launch test_cuda_render test_cuda_render_kernels bench_device_speed}
+targets=${TARGETS:-test_cuda_launch test_cuda_render test_cuda_render_kernels test_cuda_host_launch bench_device_speed difftrans_command}
 # shellcheck disable=SC2086
 cmake --build "$build" --target $targets >"$logs/build.txt" 2>&1 || { grep -B2 -A12 "error" "$logs/build.txt" | head -80; exit 1; }
 echo "gpu_check: configured and built in $(( $(date +%s) - t0 )) s; warnings: $(grep -c 'warning' "$logs/build.txt")"
 grep -A4 "warning" "$logs/build.txt" | head -20
 status=0
-for step in ${STEPS:-tests bench syntax}; do
+for step in ${STEPS:-tests command bench syntax}; do
+  if [ -n "${DEADLINE:-}" ] && [ "$(date +%s)" -ge "$DEADLINE" ]; then
+    echo "gpu_check: step $step skipped (past DEADLINE)"
+    continue
+  fi
   case $step in
     tests)
-      for t in test_cuda_launch test_cuda_render_kernels test_cuda_render; do
+      for t in test_cuda_launch test_cuda_render_kernels test_cuda_host_launch test_cuda_render; do
         exe=$(find "$build/tests" -name "$t" -type f | head -1)
         [ -z "$exe" ] && { echo "gpu_check: $t not built"; status=1; continue; }
         s=$(date +%s)
-        "$exe" >"$logs/$t.txt" 2>&1; rc=$?
+        args=()
+        [ "$t" = test_cuda_render ] && [ -n "${RENDER_TEST_ARGS:-}" ] && args=($RENDER_TEST_ARGS)
+        "$exe" "${args[@]}" >"$logs/$t.txt" 2>&1; rc=$?
         echo "gpu_check: $t exit $rc in $(( $(date +%s) - s )) s"
         [ $rc -ne 0 ] && status=1
       done ;;
@@ -72,6 +83,56 @@ for step in ${STEPS:-tests bench syntax}; do
         >"$logs/speed.jsonl" 2>"$logs/speed_errors.txt" || status=1
       echo "gpu_check: bench_device_speed in $(( $(date +%s) - s )) s"
       cat "$logs/speed.jsonl" ;;
+    command)
+      # the difftrans command on the device: render --device cuda against the
+      # host, and the quick spot-clear pipeline with stage 2's training rays
+      # on the device, then stage 2 again on the host from the same stage 1
+      dt=$build/examples/difftrans
+      w=${COMMAND_DIR:-$logs/command}  # its scenes, images and runs (COMMAND_DIR: elsewhere; the logs are copied back)
+      rm -rf "$w" && mkdir -p "$w" "$logs/command"
+      export DIFFTRANS_DATA=$root/data
+      timed() {  # timed NAME COMMAND...: runs it, logs to $w/NAME.txt, prints its exit status and time
+        local name=$1; shift
+        local s; s=$(date +%s)
+        "$@" >"$w/$name.txt" 2>&1; local rc=$?
+        echo "gpu_check: $name exit $rc in $(( $(date +%s) - s )) s"
+        [ $rc -ne 0 ] && { status=1; tail -5 "$w/$name.txt"; }
+        return $rc
+      }
+      sc=$w/scene
+      timed synth "$dt" synth --preset spot-clear --variant quick --out "$sc" || continue
+      for d in cpu ${DEVICE:-cuda}; do
+        timed "render_$d" "$dt" render --mesh "$sc/gt/mesh.obj" --material "$sc/gt/material.json" --env "$sc/gt/envmap.hdr" \
+          --scene "$sc" --split test --out "$w/render_$d" --device "$d"
+        grep -E '"(device|seconds|seconds_per_view|segments)"' "$w/render_$d.txt" | head -6
+      done
+      timed render_compare "$dt" evaluate --pred-images "$w/render_${DEVICE:-cuda}/images" --gt-images "$w/render_cpu/images" &&
+        grep -E '"(psnr|max_abs|count)"' "$w/render_compare.txt" | head -4
+      timed pipeline_device "$dt" reconstruct "$sc" --out "$w/rec_device" --stages environment,geometry,materials \
+        --device "${DEVICE:-cuda}"
+      grep -E '^(environment|geometry|materials): (CD|IoR|training|absorption|it [0-9]+/[0-9]+ .*done)' \
+        "$w/pipeline_device.txt" | head -12
+      if [ -f "$w/rec_device/mesh_stage1.obj" ]; then
+        mkdir -p "$w/stage2_host" && cp -r "$w/rec_device/." "$w/stage2_host/"
+        timed stage2_host "$dt" reconstruct "$sc" --out "$w/stage2_host" --stages materials --device cpu --restart
+        grep -E '^materials: (IoR|training|absorption|it [0-9]+/[0-9]+ .*done)' "$w/stage2_host.txt" | head -6
+      fi
+      if [ "$w" != "$logs/command" ]; then
+        cp "$w"/*.txt "$logs/command/" 2>/dev/null
+        for r in rec_device stage2_host; do [ -f "$w/$r/reconstruct.json" ] && cp "$w/$r/reconstruct.json" "$logs/command/$r.json"; done
+      fi ;;
+    profile)
+      # Nsight Compute on the first kernels of a small device pass (image, derivative, gradient):
+      # speed of light, occupancy, launch statistics, warp states
+      ncu=$(command -v ncu || ls /usr/local/cuda/bin/ncu 2>/dev/null)
+      [ -z "$ncu" ] && { echo "gpu_check: no ncu"; continue; }
+      s=$(date +%s)
+      timeout 120 "$ncu" -k regex:for_each_index -c 3 --section SpeedOfLight --section Occupancy --section LaunchStats \
+        --section WarpStateStats "$build/bench/bench_device_speed" --device-only --size 256 --spp 1 --repeats 1 spot \
+        >"$logs/ncu.txt" 2>&1
+      echo "gpu_check: ncu exit $? in $(( $(date +%s) - s )) s"
+      grep -E "for_each_index|Duration|Compute \(SM\) Throughput|Memory Throughput|Achieved Occupancy|Registers Per|Theoretical Occupancy|Warp Cycles Per Issued|Local Memory|ERR" \
+        "$logs/ncu.txt" | head -40 ;;
     *) echo "gpu_check: unknown step $step"; status=1 ;;
   esac
 done

@@ -81,6 +81,11 @@ void add_run_options(CLI::App* cmd, RunOptions& opt) {
                   "SIGINT / SIGTERM)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--device", opt.device,
+                  "where stage 2 (materials) traces its training rays: cpu (the host's threads), cuda (the GPU; fails "
+                  "at once without one) or auto (the GPU when there is one); the other stages run on the host")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"cpu", "cuda", "auto"}));
 }
 
 void add_reconstruct(CLI::App& app) {
@@ -104,6 +109,7 @@ void add_reconstruct(CLI::App& app) {
                   "a run repeats bit for bit, on any number of threads (0: the stages' defaults)")
       ->capture_default_str();
   cmd->callback([opt, environment, geometry, materials, run] {
+    check_device(run->device);
     if (opt->seed != 0) environment->field_seed = geometry->config.seed = materials->seed = opt->seed;
     std::stringstream ss(opt->stages);
     std::vector<std::string> stages;

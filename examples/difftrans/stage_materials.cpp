@@ -19,6 +19,7 @@
 #include <cstdint>
 #include <exception>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -140,6 +141,34 @@ io::Json mesh_quality_json(const metrics::MeshQuality& q) {
           {"closed", q.closed}};
 }
 
+namespace {
+
+// render::ray_group_gradient's meaning, traced by `gpu` (Stage2::set_batch_gradient).
+// A group whose gradient the GPU could not hold on its longest tape counts
+// as overflowed, as on the host.
+inline pipeline::Stage2::BatchGradient gpu_batch_gradient(GpuBatchTracer& gpu) {
+  return [&gpu](const render::HostScene& s, const std::vector<render::BatchRay>& rays, int group,
+                const pipeline::Stage2::GroupLoss& loss, render::SceneGradient& grad, const render::PassOptions& po,
+                float clip_geometry, float clip_ior) {
+    std::vector<float> r6;
+    r6.reserve(rays.size() * 6);
+    for (const render::BatchRay& r : rays)
+      for (const Vec3f& v : {r.origin, r.direction}) r6.insert(r6.end(), {v.x, v.y, v.z});
+    const GpuBatchStats st = gpu.gradient(s, r6, group, loss, grad, po.trace, clip_geometry, clip_ior);
+    render::RayBatchResult out;
+    out.loss = st.loss;
+    out.stats.rays = st.rays;
+    out.stats.trace.segments = st.segments;
+    out.stats.overflowed_rays = st.dropped_rays;
+    out.stats.max_tape_nodes = st.max_tape_nodes;
+    out.clipped_rays = st.clipped_geometry;
+    out.clipped_ior_rays = st.clipped_ior;
+    return out;
+  };
+}
+
+}  // namespace
+
 void add_materials_options(CLI::App* cmd, pipeline::Stage2Config& config) {
   add_config_options(cmd, config, "Materials: ");
 }
@@ -203,6 +232,10 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
                 : pipeline::detail::enum_name(cfg.absorption_model)) +
            (cfg.optimize_positions ? ", vertices after " + std::to_string(cfg.freeze_geometry) : std::string()));
   pipeline::Stage2 stage(s, views, mask_views, cfg);
+  // --device: the training rays on the GPU (the rest of the stage on the host)
+  const std::unique_ptr<GpuBatchTracer> gpu = gpu_batch_tracer_for(run.device, s, "materials");
+  if (gpu) stage.set_batch_gradient(gpu_batch_gradient(*gpu));
+  j["device"] = gpu ? "cuda" : "cpu";
   // the directions the training views' background saw (Stage2Config::fit_unseen_sky)
   if (s.environment_width > 0 && !s.near_field)
     stage.set_seen_texels(pipeline::seen_texels(pipeline::background_observations(scene.train), s.environment_width,

@@ -24,6 +24,7 @@ namespace difftrans::cli {
 struct RunOptions {
   bool restart = false;          // ignore checkpoints and finished results in DIR
   int checkpoint_every = 50;     // iterations between checkpoints
+  std::string device = "cpu";    // where stage 2 traces its training rays: cpu, cuda or auto
 };
 
 void add_run_options(CLI::App* cmd, RunOptions& opt);

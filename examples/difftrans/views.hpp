@@ -301,6 +301,22 @@ inline std::unique_ptr<GpuViewTracer> gpu_tracer_for(const std::string& device, 
   return std::make_unique<GpuViewTracer>(s);
 }
 
+// The GPU training pass of stage 2 that --device asks for, or none (the
+// host's): as gpu_tracer_for.
+inline std::unique_ptr<GpuBatchTracer> gpu_batch_tracer_for(const std::string& device, const render::HostScene& s,
+                                                            const std::string& label) {
+  if (device == "cpu") return nullptr;
+  std::string why = gpu_unavailable_reason();
+  if (why.empty() && s.near_field) why = "a near-field environment is traced on the host only";
+  if (!why.empty()) {
+    if (device == "cuda") throw std::runtime_error("--device cuda: " + why);
+    progress(label + ": training rays on the host (" + why + ")");
+    return nullptr;
+  }
+  progress(label + ": training rays on the GPU");
+  return std::make_unique<GpuBatchTracer>();
+}
+
 // What was rendered for one view.
 struct Rendered {
   View view;

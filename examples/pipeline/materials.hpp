@@ -23,6 +23,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <initializer_list>
 #include <iterator>
 #include <limits>
@@ -540,6 +541,15 @@ struct Stage2Stats {
 // gradient clipped to norm 1 (clip_geometry; 4 % of the rays clipped).
 class Stage2 {
  public:
+  // Where the training batches are traced: render::ray_group_gradient on
+  // the host's threads unless set_batch_gradient gives another pass with the
+  // same meaning (the command's --device cuda: the GPU's).
+  using GroupLoss = std::function<double(std::int64_t, const Vec3f*, Vec3f*)>;
+  using BatchGradient =
+      std::function<RayBatchResult(const HostScene&, const std::vector<BatchRay>&, int group, const GroupLoss&,
+                                   SceneGradient&, const PassOptions&, float clip_geometry, float clip_ior)>;
+  void set_batch_gradient(BatchGradient f) { batch_gradient_ = std::move(f); }
+
   Stage2(HostScene& scene, std::vector<Stage2View> views, std::vector<pipeline::Stage1View> mask_views,
          const Stage2Config& config)
       : scene_(scene), views_(std::move(views)), mask_views_(std::move(mask_views)), config_(config),
@@ -793,8 +803,8 @@ class Stage2 {
     std::vector<double> color_per_ray(target.size(), 0.0), tone_per_ray(target.size(), 0.0);
     std::vector<std::uint8_t> skipped(target.size(), 0);
     const auto t1 = clock::now();
-    const RayBatchResult rb = ray_group_gradient<float>(
-        scene_, rays, k,
+    const RayBatchResult rb = group_gradient(
+        rays, k,
         [&](std::int64_t i, const Vec3f* L, Vec3f* dL) {
           const RayLoss l = pixel_loss(L, k, target[std::size_t(i)], inv_n, dL, glint);
           skipped[std::size_t(i)] = l.skipped;
@@ -802,7 +812,7 @@ class Stage2 {
           tone_per_ray[std::size_t(i)] = l.tone;
           return l.value;
         },
-        grad, po, false, st.geometry_moving ? config_.clip_geometry * inv_n : 0.0f, config_.clip_ior * inv_n);
+        grad, po, st.geometry_moving ? config_.clip_geometry * inv_n : 0.0f, config_.clip_ior * inv_n);
     st.clipped_rays = rb.clipped_rays;
     st.clipped_ior_rays = rb.clipped_ior_rays;
     st.trace_seconds = std::chrono::duration<double>(clock::now() - t1).count();
@@ -1176,12 +1186,12 @@ class Stage2 {
     SceneGradient grad(scene_);
     PassOptions po;
     po.trace = config_.trace;
-    ray_group_gradient<float>(
-        scene_, rays, k,
+    group_gradient(
+        rays, k,
         [&](std::int64_t i, const Vec3f* L, Vec3f* dL) {
           return pixel_loss(L, k, target[std::size_t(i)], inv_n, dL, glint).value;
         },
-        grad, po, false, 0.0f, config_.clip_ior * inv_n);
+        grad, po, 0.0f, config_.clip_ior * inv_n);
     return grad;
   }
 
@@ -1743,7 +1753,16 @@ class Stage2 {
     environment_blur_ = sigma;
   }
 
+  // The training pass over one batch: batch_gradient_ when set, else the host's.
+  template <class Loss>
+  RayBatchResult group_gradient(const std::vector<BatchRay>& rays, int group, Loss&& loss, SceneGradient& grad,
+                                const PassOptions& po, float clip_geometry, float clip_ior) {
+    if (batch_gradient_) return batch_gradient_(scene_, rays, group, GroupLoss(loss), grad, po, clip_geometry, clip_ior);
+    return ray_group_gradient<float>(scene_, rays, group, loss, grad, po, false, clip_geometry, clip_ior);
+  }
+
   HostScene& scene_;
+  BatchGradient batch_gradient_;
   std::vector<float> sharp_environment_;  // the map (distant maps only), its unseen sky scaled
   std::vector<float> base_environment_;   // the map as given
   std::vector<std::uint8_t> seen_;        // per texel: seen by a background pixel (set_seen_texels)

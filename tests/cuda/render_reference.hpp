@@ -3,6 +3,8 @@
 // that nvcc never instantiates the tracer with the host accelerator.
 #pragma once
 
+#include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "difftrans/render/host_scene.hpp"
@@ -22,5 +24,19 @@ void host_render_derivative(const difftrans::render::HostScene& s, const difftra
 int host_render_gradient(const difftrans::render::HostScene& s, const difftrans::scene::Camera& cam,
                          const float* pixel_adjoint, difftrans::render::SceneGradient& grad,
                          const difftrans::render::TraceSettings& trace, int samples_per_axis);
+
+// render::ray_group_gradient over rays of 6 floats (origin, direction),
+// `group` a group, the vertex and IoR clips on; returns the loss, the
+// radiance (3 per ray) and the clipped group counts.
+struct HostRayGroups {
+  double loss = 0.0, seconds = 0.0;
+  std::vector<float> radiance;
+  long long clipped_geometry = 0, clipped_ior = 0, overflowed_rays = 0;
+};
+using GroupLoss = std::function<double(std::int64_t, const difftrans::Vec3f*, difftrans::Vec3f*)>;
+HostRayGroups host_ray_group_gradient(const difftrans::render::HostScene& s, const std::vector<float>& rays, int group,
+                                      const GroupLoss& loss, difftrans::render::SceneGradient& grad,
+                                      const difftrans::render::TraceSettings& trace, float clip_geometry,
+                                      float clip_ior);
 
 }  // namespace dt_test

@@ -1,4 +1,4 @@
-// GpuViewTracer in a build without the CUDA backend: there is no GPU to use.
+// GpuViewTracer and GpuBatchTracer in a build without the CUDA backend: there is no GPU to use.
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -18,6 +18,17 @@ GpuViewTracer::GpuViewTracer(const render::HostScene&) { throw std::runtime_erro
 GpuViewTracer::~GpuViewTracer() = default;
 
 std::vector<float> GpuViewTracer::render(const scene::Camera&, const render::PassOptions&, GpuViewStats*) {
+  throw std::runtime_error(gpu_unavailable_reason());
+}
+
+struct GpuBatchTracer::Impl {};
+
+GpuBatchTracer::GpuBatchTracer() { throw std::runtime_error(gpu_unavailable_reason()); }
+
+GpuBatchTracer::~GpuBatchTracer() = default;
+
+GpuBatchStats GpuBatchTracer::gradient(const render::HostScene&, const std::vector<float>&, int, const GroupLoss&,
+                                       render::SceneGradient&, const render::TraceSettings&, float, float) {
   throw std::runtime_error(gpu_unavailable_reason());
 }
 

@@ -7,8 +7,10 @@
 // against the plain host passes (render/passes.hpp).
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "difftrans/accel/bvh.hpp"
@@ -30,6 +32,14 @@ class HostLaunch {
     ThreadPool::global().parallel_for(n, 16, [&](std::int64_t b, std::int64_t e, int) {
       for (std::int64_t i = b; i < e; ++i) kernel(int(i));
     });
+  }
+  template <class T>
+  void upload(std::vector<T>& array, const T* host, std::size_t n) {
+    std::copy(host, host + n, array.begin());
+  }
+  template <class T>
+  void download(T* host, const std::vector<T>& array, std::size_t n) {
+    std::copy(array.begin(), array.begin() + std::ptrdiff_t(n), host);
   }
   std::uint32_t* counters() { return counters_; }
   void read_counters(std::uint32_t* c) const {
@@ -77,6 +87,39 @@ inline std::vector<float> twin_render_gradient(const render::HostScene& s, const
     stats->waves = waves;
   }
   return image;
+}
+
+// The device's training pass over ray groups (cuda::ray_group_gradient:
+// run_ray_groups, the radiance then the groups' clipped gradients in waves
+// of tapes) on host threads, over the portable BVH `bvh` of the scene's mesh:
+// rays are 6 floats each (origin, direction), `group` consecutive rays one
+// group; loss(j, L, dL) as render::ray_group_gradient's. Adds the gradient to
+// `grad`; returns the run (loss, counters, waves); `radiance`, if given,
+// receives 3 floats per ray.
+template <class Loss>
+RayGroupRun twin_ray_group_gradient(const render::HostScene& s, const accel::Bvh& bvh, const std::vector<float>& rays,
+                                    int group, Loss&& loss, render::SceneGradient& grad,
+                                    const render::TraceSettings& trace, float clip_geometry, float clip_ior,
+                                    const GradientSchedule& schedule, std::vector<float>* radiance = nullptr) {
+  HostLaunch be;
+  ad::ParamSet params = s.params();
+  grad.attach(params);
+  RayJob job;
+  job.scene = s.view(true, true);
+  job.bvh = bvh.view();
+  job.trace = trace;
+  job.params = &params;
+  job.group = group;
+  job.clip_class[render::param_positions] = job.clip_class[render::param_normals] = 1;
+  job.clip_class[render::param_ior] = 2;
+  job.clip[0] = clip_geometry;
+  job.clip[1] = clip_ior;
+  const std::int64_t n = std::int64_t(rays.size() / 6);
+  std::vector<float> L(std::size_t(n) * 3, 0.0f);
+  const RayGroupRun run = run_ray_groups(be, job, rays.data(), n, loss, schedule, L.data());
+  grad.fold_normals(s);
+  if (radiance) *radiance = std::move(L);
+  return run;
 }
 
 }  // namespace difftrans::cuda

@@ -50,6 +50,7 @@ class DeviceBuffer {
   void upload(const T* host) { check(cudaMemcpy(p_, host, n_ * sizeof(T), cudaMemcpyHostToDevice), "upload"); }
   void download(T* host) const { check(cudaMemcpy(host, p_, n_ * sizeof(T), cudaMemcpyDeviceToHost), "download"); }
   T* data() { return p_; }
+  const T* data() const { return p_; }
   std::size_t size() const { return n_; }
 
  private:

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <memory>
 #include <stdexcept>
+#include <utility>
 #include <vector>
 
 #include "difftrans/accel/bvh.hpp"
@@ -167,6 +168,14 @@ class DeviceLaunch {
     cudaEventDestroy(start);
     cudaEventDestroy(stop);
   }
+  template <class T>
+  void upload(DeviceBuffer<T>& array, const T* host, std::size_t n) {
+    check(cudaMemcpy(array.data(), host, n * sizeof(T), cudaMemcpyHostToDevice), "upload");
+  }
+  template <class T>
+  void download(T* host, const DeviceBuffer<T>& array, std::size_t n) {
+    check(cudaMemcpy(host, array.data(), n * sizeof(T), cudaMemcpyDeviceToHost), "download");
+  }
   std::uint32_t* counters() { return counters_.data(); }
   void read_counters(std::uint32_t* c) const { counters_.download(c); }
   void set_counter(int i, std::uint32_t v) {
@@ -233,6 +242,35 @@ inline PixelJob make_job(const DeviceScene& ds, bool ad, bool reverse, const sce
   return job;
 }
 
+// Zeroed device gradient buffers for every parameter of a scene, set into a
+// parameter set; add_to() adds them into the host gradient afterwards.
+class DeviceGradients {
+ public:
+  DeviceGradients(render::SceneGradient& grad, ad::ParamSet& set) {
+    host_[render::param_positions] = &grad.positions;
+    host_[render::param_ior] = &grad.ior;
+    host_[render::param_absorption] = &grad.absorption;
+    host_[render::param_environment] = &grad.environment;
+    host_[render::param_normals] = &grad.normals;
+    for (int b = 0; b < render::param_count; ++b) {
+      const std::vector<float> zeros(host_[b]->size(), 0.0f);
+      device_.push_back(upload_vector(zeros));
+      set.buffers[b].gradient = device_.back()->data();
+    }
+  }
+  void add_to() const {
+    for (int b = 0; b < render::param_count; ++b) {
+      std::vector<float> g(host_[b]->size());
+      if (!g.empty()) device_[std::size_t(b)]->download(g.data());
+      for (std::size_t i = 0; i < g.size(); ++i) (*host_[b])[i] += g[i];
+    }
+  }
+
+ private:
+  std::vector<float>* host_[render::param_count] = {};
+  std::vector<std::unique_ptr<DeviceBuffer<float>>> device_;
+};
+
 }  // namespace detail
 
 // Linear RGB radiance, width·height·3 floats, as render::render_image.
@@ -298,19 +336,8 @@ std::vector<float> render_gradient(const DeviceScene& ds, const scene::Camera& c
   DeviceBuffer<float> image(n);
   DeviceLaunch be;
   auto adjoint = detail::upload_array(pixel_adjoint, n);
-  std::vector<float>* host_grads[render::param_count] = {};
-  host_grads[render::param_positions] = &grad.positions;
-  host_grads[render::param_ior] = &grad.ior;
-  host_grads[render::param_absorption] = &grad.absorption;
-  host_grads[render::param_environment] = &grad.environment;
-  host_grads[render::param_normals] = &grad.normals;
   ad::ParamSet set = ds.params();
-  std::vector<std::unique_ptr<DeviceBuffer<float>>> d_grads;
-  for (int b = 0; b < render::param_count; ++b) {
-    std::vector<float> zeros(host_grads[b]->size(), 0.0f);
-    d_grads.push_back(detail::upload_vector(zeros));
-    set.buffers[b].gradient = d_grads.back()->data();
-  }
+  const detail::DeviceGradients d_grads(grad, set);
   DeviceBuffer<ad::ParamSet> params(1);
   params.upload(&set);
   // two-level normals (HostScene::view(true, true)): the normals' gradient is
@@ -347,15 +374,72 @@ std::vector<float> render_gradient(const DeviceScene& ds, const scene::Camera& c
     stats->waves = waves;
     stats->milliseconds = be.milliseconds;
   }
-  for (int b = 0; b < render::param_count; ++b) {
-    std::vector<float> g(host_grads[b]->size());
-    if (!g.empty()) d_grads[std::size_t(b)]->download(g.data());
-    for (std::size_t i = 0; i < g.size(); ++i) (*host_grads[b])[i] += g[i];
-  }
+  d_grads.add_to();
   grad.fold_normals(ds.host());
   std::vector<float> out(n);
   image.download(out.data());
   return out;
+}
+
+// Stage 2's training pass on the device, as render::ray_group_gradient:
+// rays (6 floats each: origin, direction) in groups of `group`; loss(j, L,
+// dL) sees group j's radiances and writes dLoss/dL, on the host, between the
+// radiance pass and the gradient pass (run_ray_groups). The gradient of the
+// summed loss w.r.t. every buffer marked in the scene's `differentiate` is
+// added to `grad`, each group's vertex gradient clipped to clip_geometry and
+// its IoR derivative to clip_ior (0: no clip). Unlike the host pass, a group
+// whose tape overflows is redone on a longer tape (stats->waves); the sums
+// are atomic, so the last bits differ from run to run. `radiance`, if given,
+// receives 3 floats per ray.
+struct RayGroupStats {
+  double loss = 0.0;
+  std::uint64_t rays = 0, segments = 0, hits = 0;
+  std::uint64_t overflowed_rays = 0;        // rays of groups that overflowed a tape on some try
+  std::uint64_t clipped_geometry = 0, clipped_ior = 0;  // groups clipped
+  std::uint32_t max_tape_nodes = 0;
+  GradientWaves waves;
+  double milliseconds = 0;                  // kernel time
+};
+
+template <class Loss>
+RayGroupStats ray_group_gradient(const DeviceScene& ds, const std::vector<float>& rays, int group, Loss&& loss,
+                                 render::SceneGradient& grad, const PassOptions& opt = {}, float clip_geometry = 0.0f,
+                                 float clip_ior = 0.0f, std::vector<float>* radiance = nullptr) {
+  DeviceLaunch be;
+  ad::ParamSet set = ds.params();
+  const detail::DeviceGradients d_grads(grad, set);
+  DeviceBuffer<ad::ParamSet> params(1);
+  params.upload(&set);
+  RayJob job;
+  job.scene = ds.view(true, true);
+  job.bvh = ds.bvh();
+  job.trace = opt.trace;
+  job.params = params.data();
+  job.group = group;
+  job.clip_class[render::param_positions] = job.clip_class[render::param_normals] = 1;
+  job.clip_class[render::param_ior] = 2;
+  job.clip[0] = clip_geometry;
+  job.clip[1] = clip_ior;
+  GradientSchedule schedule = opt.schedule;
+  if (schedule.tape_memory == 0) schedule.tape_memory = DeviceLaunch::half_free_memory();
+  const std::int64_t n = std::int64_t(rays.size() / 6);
+  std::vector<float> L(std::size_t(n) * 3, 0.0f);
+  const RayGroupRun run = run_ray_groups(be, job, rays.data(), n, loss, schedule, L.data());
+  d_grads.add_to();
+  grad.fold_normals(ds.host());
+  RayGroupStats st;
+  st.loss = run.loss;
+  st.rays = std::uint64_t(n);
+  st.segments = run.counters[counter_segments];
+  st.hits = run.counters[counter_hits];
+  st.overflowed_rays = run.counters[counter_overflow];
+  st.clipped_geometry = run.counters[counter_clipped_1];
+  st.clipped_ior = run.counters[counter_clipped_2];
+  st.max_tape_nodes = run.counters[counter_max_tape];
+  st.waves = run.waves;
+  st.milliseconds = be.milliseconds;
+  if (radiance) *radiance = std::move(L);
+  return st;
 }
 
 }  // namespace difftrans::cuda

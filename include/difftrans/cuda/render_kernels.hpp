@@ -11,7 +11,9 @@
 
 #include <algorithm>
 #include <cstddef>
+#include <cmath>
 #include <cstdint>
+#include <vector>
 
 #include "difftrans/accel/bvh.hpp"
 #include "difftrans/ad/ad.hpp"
@@ -42,8 +44,10 @@ enum PixelCounter : int {
   counter_hits = 1,      // surface interactions
   counter_overflow = 2,  // Var: rays whose tape or leaf log overflowed (part of their gradient lost)
   counter_max_tape = 3,  // Var: largest tape (nodes) of any ray (its peak in the streamed trace)
-  counter_overflow_pixels = 4,  // Var: entries written to PooledGradientPixel::overflow_list
-  counter_count = 5,
+  counter_overflow_pixels = 4,  // Var: entries written to an overflow list (pixels or ray groups)
+  counter_clipped_1 = 5,         // ray groups: groups whose clip class 1 was clipped (RayJob::clip_class)
+  counter_clipped_2 = 6,         // ray groups: likewise class 2
+  counter_count = 7,
 };
 
 namespace detail {
@@ -64,6 +68,16 @@ DT_HOST_DEVICE inline void counter_max(std::uint32_t* c, std::uint32_t v) {
   while (old < v && !__atomic_compare_exchange_n(c, &old, v, true, __ATOMIC_RELAXED, __ATOMIC_RELAXED)) {
   }
 #endif
+}
+
+// Appends `item` to an overflow list, counted in counters[counter_overflow_pixels].
+DT_HOST_DEVICE inline void list_overflow(std::uint32_t* counters, std::int32_t* list, std::int32_t item) {
+#if DT_DEVICE_PASS
+  const std::uint32_t k = atomicAdd(counters + counter_overflow_pixels, 1u);
+#else
+  const std::uint32_t k = __atomic_fetch_add(counters + counter_overflow_pixels, 1u, __ATOMIC_RELAXED);
+#endif
+  list[k] = item;
 }
 
 DT_HOST_DEVICE inline void add_counts(const PixelJob& job, const render::TraceStats& st) {
@@ -197,14 +211,7 @@ struct PooledGradientPixel {
     ad::Tape<float> tape(pool.nodes + s * pool.capacity, pool.adjoints + s * pool.capacity, pool.capacity);
     const bool overflowed =
         detail::gradient_pixel(job, pix, tape, pool.logs + s * pool.log_capacity, pool.log_capacity, adjoint_scale);
-    if (overflowed && overflow_list) {
-#if DT_DEVICE_PASS
-      const std::uint32_t k = atomicAdd(job.counters + counter_overflow_pixels, 1u);
-#else
-      const std::uint32_t k = __atomic_fetch_add(job.counters + counter_overflow_pixels, 1u, __ATOMIC_RELAXED);
-#endif
-      overflow_list[k] = pix;
-    }
+    if (overflowed && overflow_list) detail::list_overflow(job.counters, overflow_list, pix);
   }
 };
 
@@ -233,53 +240,58 @@ inline std::int64_t wave_slots(std::int64_t items, std::size_t bytes_per_slot, s
   return std::max<std::int64_t>(std::min(slots, items), 0);
 }
 
-// The reverse pass over `pixels` pixels, written once over a launch backend B
-// (device: cuda/render.cuh; host threads: cuda/host_launch.hpp), which offers
+namespace detail {
+
+// The schedule of a reverse pass over `items` work items (pixels, ray
+// groups), written once over a launch backend B (device: cuda/render.cuh;
+// host threads: cuda/host_launch.hpp), which offers
 //   be.template make<T>(n)   an owning array of n elements (contents unset)
 //                            in its memory, with data();
 //   be.launch(n, kernel)     kernel(i) for i in [0, n), then waits;
-//   be.read_counters(c)      copies the counter_count counters of job.counters;
+//   be.read_counters(c)      copies the counter_count counters of the pass;
 //   be.set_counter(i, v)     sets one of them.
-// job.counters must point at the backend's counters.
-// First every pixel in waves of tapes of schedule.tape_capacity nodes. A
-// pixel whose rays overflowed has scattered part of its gradient; it is run
-// again on the same tape with dLoss/dpixel negated, which takes exactly that
-// part back, then on a tape 8 times longer, until none overflows or the
-// longest tape is reached (those are dropped_pixels).
-template <class B>
-GradientWaves run_gradient_waves(B& be, PixelJob job, std::int64_t pixels, const GradientSchedule& schedule) {
+// make(pool, items, list, scale, overflow_list, first_try) returns the
+// kernel of one try (with a member `first`, the first item of a wave): the
+// items of `list` (every item when null) on tapes of `pool`, dLoss/d output
+// times `scale`, overflowed items appended to overflow_list when it is given.
+// First every item in waves of tapes of schedule.tape_capacity nodes. An item
+// whose tape overflowed is, with take_back, run again on the same tape with
+// scale −1 (it scattered part of its gradient: this takes exactly that part
+// back); then it is run on a tape 8 times longer, until none overflows or
+// the longest tape is reached (those are dropped).
+template <class B, class MakeKernel>
+GradientWaves run_waves(B& be, std::int64_t items, const GradientSchedule& schedule, bool take_back,
+                        MakeKernel&& make) {
   GradientWaves out;
   std::int32_t cap = std::max<std::int32_t>(schedule.tape_capacity, 16);
   std::int32_t log_cap = std::max<std::int32_t>(schedule.leaf_log_capacity, 16);
-  auto list_a = be.template make<std::int32_t>(std::size_t(std::max<std::int64_t>(pixels, 1)));
-  auto list_b = be.template make<std::int32_t>(std::size_t(std::max<std::int64_t>(pixels, 1)));
+  auto list_a = be.template make<std::int32_t>(std::size_t(std::max<std::int64_t>(items, 1)));
+  auto list_b = be.template make<std::int32_t>(std::size_t(std::max<std::int64_t>(items, 1)));
   std::int32_t* lists[2] = {list_a.data(), list_b.data()};
   const auto overflow_count = [&]() {
     std::uint32_t c[counter_count];
     be.read_counters(c);
     return std::int64_t(c[counter_overflow_pixels]);
   };
-  const auto reset_overflow_count = [&]() { be.set_counter(counter_overflow_pixels, 0u); };
-  // one try: items of `list` (all pixels when null) on tapes of cap / log_cap
-  const auto run = [&](const std::int32_t* list, std::int64_t items, float scale, std::int32_t* overflow_list,
-                       bool write_image) {
-    const std::int64_t slots = wave_slots(items, TapePool::bytes_per_slot(cap, log_cap), schedule.tape_memory);
+  // one try: the items of `list` (all when null) on tapes of cap / log_cap
+  const auto run = [&](const std::int32_t* list, std::int64_t n, float scale, std::int32_t* overflow_list,
+                       bool first_try) {
+    const std::int64_t slots = wave_slots(n, TapePool::bytes_per_slot(cap, log_cap), schedule.tape_memory);
     if (slots == 0) return std::int64_t(0);
     auto nodes = be.template make<ad::Node<float>>(std::size_t(slots) * std::size_t(cap));
     auto adjoints = be.template make<float>(std::size_t(slots) * std::size_t(cap));
     auto logs = be.template make<ad::LeafRecord>(std::size_t(slots) * std::size_t(log_cap));
-    PooledGradientPixel k{job, TapePool{nodes.data(), adjoints.data(), logs.data(), cap, log_cap}, 0, items, list,
-                          scale, overflow_list};
-    if (!write_image) k.job.image = nullptr;
-    for (std::int64_t first = 0; first < items; first += slots) {
+    auto k = make(TapePool{nodes.data(), adjoints.data(), logs.data(), cap, log_cap}, n, list, scale, overflow_list,
+                  first_try);
+    for (std::int64_t first = 0; first < n; first += slots) {
       k.first = first;
-      be.launch(int(std::min(slots, items - first)), k);
+      be.launch(int(std::min(slots, n - first)), k);
       ++out.waves;
     }
     return slots;
   };
-  reset_overflow_count();
-  out.slots = run(nullptr, pixels, 1.0f, lists[0], true);
+  be.set_counter(counter_overflow_pixels, 0u);
+  out.slots = run(nullptr, items, 1.0f, lists[0], true);
   std::int64_t over = overflow_count();
   int cur = 0;
   while (over > 0) {
@@ -288,15 +300,201 @@ GradientWaves run_gradient_waves(B& be, PixelJob job, std::int64_t pixels, const
       break;
     }
     out.redone_pixels += over;
-    run(lists[cur], over, -1.0f, nullptr, false);  // take back the partial gradient
+    if (take_back) run(lists[cur], over, -1.0f, nullptr, false);
     cap = std::int32_t(std::min<std::int64_t>(std::int64_t(cap) * 8, schedule.max_tape_capacity));
     log_cap = std::int32_t(std::min<std::int64_t>(std::int64_t(log_cap) * 8, schedule.max_tape_capacity));
-    reset_overflow_count();
+    be.set_counter(counter_overflow_pixels, 0u);
     run(lists[cur], over, 1.0f, lists[1 - cur], false);
     over = overflow_count();
     cur = 1 - cur;
   }
   out.final_capacity = cap;
+  return out;
+}
+
+}  // namespace detail
+
+// The reverse pass over `pixels` pixels (detail::run_waves with the
+// per-pixel streamed body, PooledGradientPixel). job.counters must point at
+// the backend's counters. A pixel whose rays overflowed has scattered part
+// of its gradient as it was traced: it is taken back before the redo.
+template <class B>
+GradientWaves run_gradient_waves(B& be, PixelJob job, std::int64_t pixels, const GradientSchedule& schedule) {
+  return detail::run_waves(be, pixels, schedule, true,
+                           [&](const TapePool& pool, std::int64_t items, const std::int32_t* list, float scale,
+                               std::int32_t* overflow_list, bool first_try) {
+                             PooledGradientPixel k{job, pool, 0, items, list, scale, overflow_list};
+                             if (!first_try) k.job.image = nullptr;
+                             return k;
+                           });
+}
+
+// ---- Batches of camera rays (stage 2's training pass) ----
+
+// Everything a ray-batch kernel reads and writes: rays given one by one (an
+// origin and a direction each: pixels of several views, as stage 2 draws
+// them) in groups of `group` consecutive rays, the samples of one pixel, whose
+// loss is known only once the whole group is traced. Trivially copyable.
+struct RayJob {
+  render::SceneView scene;
+  accel::BvhView bvh;
+  render::TraceSettings trace;
+  const ad::ParamSet* params = nullptr;
+  const float* rays = nullptr;       // origin xyz, direction xyz per ray
+  int group = 1;                     // rays per group
+  float* radiance = nullptr;         // RayRadiance: 3 per ray, written
+  const float* adjoint = nullptr;    // GroupGradient: dLoss/dradiance, 3 per ray
+  // GroupGradient: a group's gradient w.r.t. the buffers b of clip class
+  // clip_class[b] = c (1 or 2; 0: none) has its L2 norm capped at clip[c − 1]
+  // (0: no cap); e.g. the vertices (positions and normals together) and the IoR.
+  std::int8_t clip_class[ad::max_param_buffers] = {};
+  float clip[2] = {0.0f, 0.0f};
+  std::uint32_t* counters = nullptr;  // optional, see PixelCounter
+};
+
+// The radiance along ray i (plain float).
+struct RayRadiance {
+  RayJob job;
+
+  DT_HOST_DEVICE void operator()(int i) const {
+    ad::ParamReader<float> reader(job.params);
+    render::TraceStats st;
+    const float* r = job.rays + 6 * std::int64_t(i);
+    const Vec3f L = render::trace<float>(job.scene, job.bvh, reader, Vec3f(r[0], r[1], r[2]), Vec3f(r[3], r[4], r[5]),
+                                         job.trace, &st);
+    for (int c = 0; c < 3; ++c) job.radiance[3 * std::int64_t(i) + c] = L[c];
+    if (job.counters) {
+      detail::counter_add(job.counters + counter_segments, std::uint32_t(st.segments));
+      detail::counter_add(job.counters + counter_hits, std::uint32_t(st.hits));
+    }
+  }
+};
+
+// The gradient of Σ adjoint · radiance over one group of rays, given the
+// adjoints (the loss's, from the radiance of RayRadiance), with the group's
+// gradient clipped per clip class (as render::ray_group_gradient clips the
+// vertices' and the IoR's):
+// every ray of the group traced on one tape (the whole tree: the clip needs
+// the group's gradient before any of it is scattered), each seeded as it
+// ends, one sweep, then the scatter. A group whose tape or leaf log overflows
+// scatters nothing and is appended to overflow_list (to be redone on a longer
+// tape); a group whose adjoints are all zero is not traced.
+struct GroupGradient {
+  RayJob job;
+  TapePool pool;
+  std::int64_t first = 0;
+  std::int64_t item_count = 0;
+  const std::int32_t* group_list = nullptr;
+  std::int32_t* overflow_list = nullptr;
+
+  DT_HOST_DEVICE void operator()(int slot) const {
+    using V = ad::Var<float>;
+    const std::int64_t item = first + slot;
+    if (item >= item_count) return;
+    const std::int32_t g = group_list ? group_list[item] : std::int32_t(item);
+    const std::int64_t r0 = std::int64_t(g) * job.group;
+    bool any = false;
+    for (std::int64_t k = 3 * r0; k < 3 * (r0 + job.group); ++k) any = any || job.adjoint[k] != 0.0f;
+    if (!any) return;
+    const std::int64_t s = slot;
+    ad::Tape<float> tape(pool.nodes + s * pool.capacity, pool.adjoints + s * pool.capacity, pool.capacity);
+    ad::ParamReader<V> reader(job.params, &tape, pool.logs + s * pool.log_capacity, pool.log_capacity);
+    tape.reset();
+    tape.zero_on_push(true);  // each node's adjoint starts at zero: a ray is seeded as soon as it ends
+    render::TraceStats st;
+    for (std::int64_t q = r0; q < r0 + job.group; ++q) {
+      const float* r = job.rays + 6 * q;
+      const Vec3<V> L =
+          render::trace<V>(job.scene, job.bvh, reader, Vec3f(r[0], r[1], r[2]), Vec3f(r[3], r[4], r[5]), job.trace, &st);
+      for (int c = 0; c < 3; ++c) tape.seed(L[c], job.adjoint[3 * q + c]);
+    }
+    tape.zero_on_push(false);
+    if (job.counters) {
+      detail::counter_add(job.counters + counter_segments, std::uint32_t(st.segments));
+      detail::counter_add(job.counters + counter_hits, std::uint32_t(st.hits));
+      detail::counter_max(job.counters + counter_max_tape, std::uint32_t(tape.size()));
+    }
+    if (tape.overflowed() || reader.overflowed()) {
+      if (job.counters) detail::counter_add(job.counters + counter_overflow, std::uint32_t(job.group));
+      if (overflow_list) detail::list_overflow(job.counters, overflow_list, g);
+      reader.clear();
+      return;
+    }
+    tape.propagate();
+    float scale[ad::max_param_buffers];
+    for (float& x : scale) x = 1.0f;
+    for (int c = 1; c <= 2; ++c) {
+      const float cap = job.clip[c - 1];
+      if (!(cap > 0.0f)) continue;
+      float n2 = 0.0f;
+      for (int b = 0; b < ad::max_param_buffers; ++b)
+        if (job.clip_class[b] == c) n2 += reader.adjoint_norm2(b);
+      if (n2 > cap * cap) {
+        for (int b = 0; b < ad::max_param_buffers; ++b)
+          if (job.clip_class[b] == c) scale[b] = cap / std::sqrt(n2);
+        if (job.counters) detail::counter_add(job.counters + (c == 1 ? counter_clipped_1 : counter_clipped_2), 1u);
+      }
+    }
+    reader.scatter_scaled(scale);
+  }
+};
+
+// What run_ray_groups did.
+struct RayGroupRun {
+  double loss = 0.0;                  // Σ of the groups' losses
+  std::uint32_t counters[counter_count] = {};  // of both passes (segments, hits) and the schedule
+  GradientWaves waves;
+};
+
+// Stage 2's training pass over a launch backend (as run_waves', plus
+//   be.upload(array, host, n) / be.download(host, array, n)):
+// the radiance of every ray (RayRadiance), then loss(j, L, dL) on the host
+// for each group j (L: its rays' radiances; it writes dLoss/dL and returns
+// the group's loss), then the groups' gradients (GroupGradient) in waves of
+// tapes that fit schedule.tape_memory, the overflowed groups redone on
+// longer tapes. job: scene, bvh, trace, params (whose gradient buffers
+// receive the gradient), group and clips; its rays, radiance, adjoint and
+// counters are set here. `radiance` (host, 3 per ray) receives the radiance.
+template <class B, class Loss>
+RayGroupRun run_ray_groups(B& be, RayJob job, const float* rays, std::int64_t ray_count, Loss&& loss,
+                           const GradientSchedule& schedule, float* radiance) {
+  RayGroupRun out;
+  const int group = job.group < 1 ? 1 : job.group;
+  job.group = group;
+  const std::int64_t groups = ray_count / group;
+  auto d_rays = be.template make<float>(std::size_t(std::max<std::int64_t>(ray_count, 1)) * 6);
+  auto d_radiance = be.template make<float>(std::size_t(std::max<std::int64_t>(ray_count, 1)) * 3);
+  auto d_adjoint = be.template make<float>(std::size_t(std::max<std::int64_t>(ray_count, 1)) * 3);
+  if (ray_count > 0) be.upload(d_rays, rays, std::size_t(ray_count) * 6);
+  job.rays = d_rays.data();
+  job.radiance = d_radiance.data();
+  job.adjoint = d_adjoint.data();
+  job.counters = be.counters();
+  for (int c = 0; c < counter_count; ++c) be.set_counter(c, 0u);
+  be.launch(int(ray_count), RayRadiance{job});
+  if (ray_count > 0) be.download(radiance, d_radiance, std::size_t(ray_count) * 3);
+  std::vector<float> adjoint(std::size_t(ray_count) * 3, 0.0f);
+  std::vector<Vec3f> values(static_cast<std::size_t>(group)), adjoints(static_cast<std::size_t>(group));
+  Vec3f* const L = values.data();
+  Vec3f* const dL = adjoints.data();
+  for (std::int64_t j = 0; j < groups; ++j) {
+    const std::size_t r0 = std::size_t(j) * std::size_t(group);
+    for (std::size_t q = 0; q < std::size_t(group); ++q) {
+      const float* c = radiance + 3 * (r0 + q);
+      L[q] = Vec3f(c[0], c[1], c[2]);
+      dL[q] = Vec3f(0.0f);
+    }
+    out.loss += loss(j, static_cast<const Vec3f*>(L), dL);
+    for (std::size_t q = 0; q < std::size_t(group); ++q)
+      for (int c = 0; c < 3; ++c) adjoint[3 * (r0 + q) + std::size_t(c)] = dL[q][c];
+  }
+  if (ray_count > 0) be.upload(d_adjoint, adjoint.data(), adjoint.size());
+  out.waves = detail::run_waves(be, groups, schedule, false,
+                                [&](const TapePool& pool, std::int64_t items, const std::int32_t* list, float,
+                                    std::int32_t* overflow_list, bool) {
+                                  return GroupGradient{job, pool, 0, items, list, overflow_list};
+                                });
+  be.read_counters(out.counters);
   return out;
 }
 
