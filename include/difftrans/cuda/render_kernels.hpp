@@ -489,7 +489,17 @@ RayGroupRun run_ray_groups(B& be, RayJob job, const float* rays, std::int64_t ra
       for (int c = 0; c < 3; ++c) adjoint[3 * (r0 + q) + std::size_t(c)] = dL[q][c];
   }
   if (ray_count > 0) be.upload(d_adjoint, adjoint.data(), adjoint.size());
-  out.waves = detail::run_waves(be, groups, schedule, false,
+  // the first tapes as long as the memory holds for every group at once (up
+  // to 65,536 nodes): the deep groups then run beside the others instead of
+  // in later waves of their own, each as long as its slowest thread
+  GradientSchedule first = schedule;
+  while (first.tape_capacity < (1 << 16) && first.tape_capacity < schedule.max_tape_capacity &&
+         std::size_t(groups) * TapePool::bytes_per_slot(2 * first.tape_capacity, 2 * first.leaf_log_capacity) <=
+             schedule.tape_memory) {
+    first.tape_capacity *= 2;
+    first.leaf_log_capacity *= 2;
+  }
+  out.waves = detail::run_waves(be, groups, first, false,
                                 [&](const TapePool& pool, std::int64_t items, const std::int32_t* list, float,
                                     std::int32_t* overflow_list, bool) {
                                   return GroupGradient{job, pool, 0, items, list, overflow_list};
