@@ -59,6 +59,7 @@ for step in ${STEPS:-tests command bench syntax}; do
       cxx=$(sed -n 's/^CMAKE_CXX_COMPILER:[A-Z]*=//p' "$build/CMakeCache.txt")
       inc=${prefix:+$prefix/include}
       inc=${inc:-/usr/include}
+      # a source file sees its own top folder first (tests/support and bench/support share names)
       flags=(-std=c++17 -fsyntax-only -I"$root/include" -I"$root/tests" -I"$root/bench" -I"$root/examples"
              -isystem "$inc/stb" -isystem "$inc/OpenEXR" -isystem "$inc/Imath" -isystem "$inc/eigen3" -DDIFFTRANS_HAVE_EMBREE=1
              -DDIFFTRANS_DATA_DIR=\"data\" -DDIFFTRANS_BUILD_FLAGS=\"\")
@@ -66,11 +67,12 @@ for step in ${STEPS:-tests command bench syntax}; do
       s=$(date +%s)
       # one file: a header alone (H) or a source file (S); prints its error lines
       check_one() {
-        if [ "$1" = H ]; then $CXX_SYNTAX -x c++ -include "$2" /dev/null; else $CXX_SYNTAX "$2"; fi 2>&1 |
+        if [ "$1" = H ]; then $CXX_BIN $CXX_FLAGS -x c++ -include "$2" /dev/null
+        else $CXX_BIN -I"${2%%/*}" $CXX_FLAGS "$2"; fi 2>&1 |
           grep -E "error" | sed "s|^|$2: |"
       }
       export -f check_one
-      export CXX_SYNTAX="$cxx ${flags[*]}"
+      export CXX_BIN=$cxx CXX_FLAGS="${flags[*]}"
       ( cd "$root" && { ls include/difftrans/*/*.hpp | sed 's/^/H /'; find tests examples bench -name '*.cpp' | sed 's/^/S /'; } |
         xargs -P "$(nproc)" -L1 bash -c 'check_one "$0" "$1"' ) > "$logs/syntax.txt" 2>&1 || true
       echo "gpu_check: syntax of headers and sources with $($cxx -dumpfullversion) in $(( $(date +%s) - s )) s:" \

@@ -4,6 +4,7 @@
 // one long tape per worker.
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <cstdio>
 #include <memory>
@@ -220,6 +221,29 @@ TEST_CASE("stage 2's training pass on the device's schedule, on host threads, ag
   CHECK(std::abs(twin.ior[0] - host.ior[0]) <= 1e-4 * std::abs(host.ior[0]));
   CHECK(relative_l2(twin.positions, host.positions) <= 1e-4);
   CHECK(relative_l2(twin.absorption, host.absorption) <= 1e-5);
+
+  // with memory to spare the first tapes grow until every group fits at once:
+  // one launch, nothing redone, the same gradient (1,024 groups across the object's middle)
+  {
+    const std::ptrdiff_t g0 = std::ptrdiff_t(size) * 40, g1 = g0 + 1024;
+    const std::vector<render::BatchRay> few(rays.begin() + g0 * group, rays.begin() + g1 * group);
+    const std::vector<float> few6(rays6.begin() + g0 * group * 6, rays6.begin() + g1 * group * 6);
+    render::SceneGradient host_few(s), twin_few(s);
+    const render::RayBatchResult hf =
+        render::ray_group_gradient<float>(s, few, group, loss, host_few, po, false, clip_geometry, clip_ior);
+    cuda::GradientSchedule roomy;
+    roomy.tape_memory = std::size_t(512) << 20;
+    const cuda::RayGroupRun tf = cuda::twin_ray_group_gradient(s, bvh, few6, group, loss, twin_few, trace,
+                                                               clip_geometry, clip_ior, roomy);
+    std::printf("  1,024 groups, 512 MiB of tapes: %d launch(es), %lld groups redone, longest tape %u nodes\n",
+                tf.waves.waves, (long long)tf.waves.redone_pixels, tf.counters[cuda::counter_max_tape]);
+    CHECK(tf.waves.waves == 1);
+    CHECK(tf.waves.redone_pixels == 0);
+    CHECK(tf.counters[cuda::counter_max_tape] > std::uint32_t(roomy.tape_capacity));  // it did grow
+    CHECK(std::abs(tf.loss - hf.loss) <= 1e-6 * hf.loss);
+    CHECK(relative_l2(twin_few.positions, host_few.positions) <= 1e-4);
+    CHECK(std::abs(twin_few.ior[0] - host_few.ior[0]) <= 1e-4 * std::abs(host_few.ior[0]));
+  }
 
   // the longest tape too short for some groups: they are counted, and their gradient is missing, not partial
   schedule.max_tape_capacity = std::int32_t(longest / 2);

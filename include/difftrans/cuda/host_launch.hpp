@@ -15,6 +15,7 @@
 
 #include "difftrans/accel/bvh.hpp"
 #include "difftrans/core/parallel.hpp"
+#include "difftrans/cuda/ray_groups.hpp"
 #include "difftrans/cuda/render_kernels.hpp"
 #include "difftrans/render/host_scene.hpp"
 

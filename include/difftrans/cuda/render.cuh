@@ -14,6 +14,7 @@
 
 #include "difftrans/accel/bvh.hpp"
 #include "difftrans/cuda/launch.cuh"
+#include "difftrans/cuda/ray_groups.hpp"
 #include "difftrans/cuda/render_kernels.hpp"
 #include "difftrans/render/host_scene.hpp"
 
@@ -141,6 +142,23 @@ struct DevicePassStats {
   double milliseconds = 0;            // kernel time (CUDA events)
 };
 
+// cuda::launch, then waits for it; returns its time in milliseconds (CUDA events).
+template <class K>
+float timed_launch(int n, const K& kernel, int block) {
+  cudaEvent_t start, stop;
+  check(cudaEventCreate(&start), "cudaEventCreate");
+  check(cudaEventCreate(&stop), "cudaEventCreate");
+  check(cudaEventRecord(start), "cudaEventRecord");
+  launch(n, kernel, block);
+  check(cudaEventRecord(stop), "cudaEventRecord");
+  check(cudaEventSynchronize(stop), "kernel");
+  float ms = 0;
+  check(cudaEventElapsedTime(&ms, start, stop), "cudaEventElapsedTime");
+  cudaEventDestroy(start);
+  cudaEventDestroy(stop);
+  return ms;
+}
+
 // The device launch backend of run_gradient_waves: buffers in device memory,
 // synchronous launches timed with CUDA events, the pass's counters.
 class DeviceLaunch {
@@ -155,18 +173,7 @@ class DeviceLaunch {
   }
   template <class K>
   void launch(int n, const K& kernel, int block = 64) {
-    cudaEvent_t start, stop;
-    check(cudaEventCreate(&start), "cudaEventCreate");
-    check(cudaEventCreate(&stop), "cudaEventCreate");
-    check(cudaEventRecord(start), "cudaEventRecord");
-    cuda::launch(n, kernel, block);
-    check(cudaEventRecord(stop), "cudaEventRecord");
-    check(cudaEventSynchronize(stop), "kernel");
-    float ms = 0;
-    check(cudaEventElapsedTime(&ms, start, stop), "cudaEventElapsedTime");
-    milliseconds += ms;
-    cudaEventDestroy(start);
-    cudaEventDestroy(stop);
+    milliseconds += timed_launch(n, kernel, block);
   }
   template <class T>
   void upload(DeviceBuffer<T>& array, const T* host, std::size_t n) {
@@ -201,17 +208,7 @@ template <class K>
 void run_pixels(const K& kernel, const scene::Camera& cam, int samples, DeviceBuffer<std::uint32_t>& counters,
                 DevicePassStats* stats, int block = 128) {
   const int n = cam.width * cam.height;
-  cudaEvent_t start, stop;
-  check(cudaEventCreate(&start), "cudaEventCreate");
-  check(cudaEventCreate(&stop), "cudaEventCreate");
-  check(cudaEventRecord(start), "cudaEventRecord");
-  launch(n, kernel, block);
-  check(cudaEventRecord(stop), "cudaEventRecord");
-  check(cudaEventSynchronize(stop), "kernel");
-  float ms = 0;
-  check(cudaEventElapsedTime(&ms, start, stop), "cudaEventElapsedTime");
-  cudaEventDestroy(start);
-  cudaEventDestroy(stop);
+  const float ms = timed_launch(n, kernel, block);
   if (stats) {
     std::uint32_t c[counter_count];
     counters.download(c);

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "difftrans/ad/params.hpp"
 #include "difftrans/scene/envmap.hpp"
 
 namespace difftrans::scene {
