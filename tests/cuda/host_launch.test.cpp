@@ -13,6 +13,7 @@
 
 #include "support/ad_check.hpp"
 #include "support/shapes.hpp"
+#include "training_batch.hpp"
 
 #include "difftrans/accel/bvh.hpp"
 #include "difftrans/cuda/host_launch.hpp"
@@ -52,6 +53,16 @@ double relative_l2(const std::vector<float>& a, const std::vector<float>& b) {
   return std::sqrt(num / std::max(den, 1e-30));
 }
 
+// Spot, IoR 1.45, homogeneous absorption, under a smooth sky.
+difftrans::render::HostScene spot_scene() {
+  const Shape shape = load_normalized_mesh(std::string(DIFFTRANS_DATA_DIR) + "/meshes/spot.obj");
+  difftrans::render::HostScene s(shape.positions, shape.triangles, "spot");
+  s.ior = 1.45f;
+  s.set_environment_map(smooth_sky(32, 16), 32, 16);
+  s.set_homogeneous_absorption(Vec3f(0.3f, 0.6f, 1.2f));
+  return s;
+}
+
 }  // namespace
 
 TEST_CASE("the device's reverse schedule, on host threads, at the command's sizes") {
@@ -61,11 +72,7 @@ TEST_CASE("the device's reverse schedule, on host threads, at the command's size
   // per worker. Spot (homogeneous absorption, IoR 1.45) at 512² depth 16 and
   // 1024² depth 4, one sample per pixel.
   using namespace difftrans;
-  const Shape shape = load_normalized_mesh(std::string(DIFFTRANS_DATA_DIR) + "/meshes/spot.obj");
-  render::HostScene s(shape.positions, shape.triangles, "spot");
-  s.ior = 1.45f;
-  s.set_environment_map(smooth_sky(32, 16), 32, 16);
-  s.set_homogeneous_absorption(Vec3f(0.3f, 0.6f, 1.2f));
+  render::HostScene s = spot_scene();
   const Bvh bvh(s.mesh.positions.data(), s.mesh.num_vertices(), s.mesh.triangles.data(), s.mesh.num_triangles(),
                 "spot");
   struct Size {
@@ -142,45 +149,24 @@ TEST_CASE("stage 2's training pass on the device's schedule, on host threads, ag
   // to depth 8, roulette, pruning at 0.01), two jittered rays per pixel of
   // two views, an L2 loss of their mean, the vertex and IoR clips on.
   using namespace difftrans;
-  const Shape shape = load_normalized_mesh(std::string(DIFFTRANS_DATA_DIR) + "/meshes/spot.obj");
-  render::HostScene s(shape.positions, shape.triangles, "spot");
-  s.ior = 1.45f;
-  s.set_environment_map(smooth_sky(32, 16), 32, 16);
-  s.set_homogeneous_absorption(Vec3f(0.3f, 0.6f, 1.2f));
+  render::HostScene s = spot_scene();
   s.differentiate[render::param_positions] = true;
   s.differentiate[render::param_normals] = true;
   s.differentiate[render::param_ior] = true;
   s.differentiate[render::param_absorption] = true;
   const Bvh bvh(s.mesh.positions.data(), s.mesh.num_vertices(), s.mesh.triangles.data(), s.mesh.num_triangles(),
                 "spot");
-  render::TraceSettings trace;
-  trace.max_depth = 16;
-  trace.tree_depth = 8;
-  trace.roulette = true;
-  trace.prune_throughput = 0.01f;
-  const int size = 96, group = 2;
-  std::vector<render::BatchRay> rays;
-  std::vector<float> rays6;
-  for (const Vec3f eye : {Vec3f(0.3f, 0.4f, 1.6f), Vec3f(-1.2f, 0.2f, -0.9f)}) {
-    const scene::Camera cam = scene::look_at_camera(eye, Vec3f(0.0f), Vec3f(0, 1, 0), 0.9f, size, size);
-    for (int y = 0; y < size; ++y)
-      for (int x = 0; x < size; ++x)
-        for (int q = 0; q < group; ++q) {
-          const scene::Ray r = cam.ray_through(float(x) + 0.25f + 0.5f * float(q), float(y) + 0.5f);
-          rays.push_back({r.origin, r.direction});
-          for (int c = 0; c < 3; ++c) rays6.push_back(r.origin[c]);
-          for (int c = 0; c < 3; ++c) rays6.push_back(r.direction[c]);
-        }
-  }
-  const std::int64_t groups = std::int64_t(rays.size()) / group;
-  const float inv_n = 1.0f / float(groups);
-  const auto loss = [&](std::int64_t j, const Vec3f* L, Vec3f* dL) {
-    const Vec3f target(0.45f + 0.2f * std::sin(0.01f * float(j)), 0.5f, 0.55f);
-    const Vec3f r = 0.5f * (L[0] + L[1]) - target;
-    dL[0] = dL[1] = inv_n * r;  // d/dL[q] of 0.5 · inv_n · |mean − target|²
-    return 0.5 * double(inv_n) * double(glm::dot(r, r));
-  };
-  const float clip_geometry = 2.0f * inv_n, clip_ior = 5.0f * inv_n;
+  const render::TraceSettings trace = TrainingBatch::trace();
+  const TrainingBatch batch = TrainingBatch::make(96);
+  const int size = 96, group = TrainingBatch::group;
+  const std::vector<float>& rays6 = batch.rays;
+  std::vector<render::BatchRay> rays(rays6.size() / 6);
+  for (std::size_t i = 0; i < rays.size(); ++i)
+    rays[i] = {Vec3f(rays6[6 * i], rays6[6 * i + 1], rays6[6 * i + 2]),
+               Vec3f(rays6[6 * i + 3], rays6[6 * i + 4], rays6[6 * i + 5])};
+  const std::int64_t groups = batch.groups;
+  const auto loss = [&](std::int64_t j, const Vec3f* L, Vec3f* dL) { return batch.loss(j, L, dL); };
+  const float clip_geometry = batch.clip_geometry, clip_ior = batch.clip_ior;
 
   render::SceneGradient host(s);
   render::PassOptions po;

@@ -36,6 +36,7 @@
 
 #include "difftrans/cuda/render.cuh"
 #include "render_reference.hpp"
+#include "training_batch.hpp"
 #include "support/shapes.hpp"
 
 namespace dc = difftrans::cuda;
@@ -316,33 +317,15 @@ int compare_ray_groups(int size) {
   // the normals through the positions on the tape (no separate leaves folded
   // in afterwards), so that the clip bounds each group's position gradient
   s.two_level_normals = false;
-  dr::TraceSettings trace;
-  trace.max_depth = 16;
-  trace.tree_depth = 8;
-  trace.roulette = true;
-  trace.prune_throughput = 0.01f;
-  const int group = 2;
-  std::vector<float> rays, moved;
-  for (const Vec3f eye : {Vec3f(0.3f, 0.4f, 1.6f), Vec3f(-1.2f, 0.2f, -0.9f)}) {
-    const scene::Camera cam = scene::look_at_camera(eye, Vec3f(0.0f), Vec3f(0, 1, 0), 0.9f, size, size);
-    for (int y = 0; y < size; ++y)
-      for (int x = 0; x < size; ++x)
-        for (int q = 0; q < group; ++q) {
-          const scene::Ray r = cam.ray_through(float(x) + 0.25f + 0.5f * float(q), float(y) + 0.5f);
-          rays.insert(rays.end(), {r.origin.x, r.origin.y, r.origin.z, r.direction.x, r.direction.y, r.direction.z});
-          moved.insert(moved.end(), {std::nextafter(r.origin.x, 10.0f), r.origin.y, r.origin.z, r.direction.x,
-                                     r.direction.y, r.direction.z});
-        }
-  }
-  const std::int64_t groups = std::int64_t(rays.size() / 6) / group;
-  const float inv_n = 1.0f / float(groups);
-  const auto loss = [&](std::int64_t j, const Vec3f* L, Vec3f* dL) {
-    const Vec3f target(0.45f + 0.2f * std::sin(0.01f * float(j)), 0.5f, 0.55f);
-    const Vec3f r = 0.5f * (L[0] + L[1]) - target;
-    dL[0] = dL[1] = inv_n * r;
-    return 0.5 * double(inv_n) * double(glm::dot(r, r));
-  };
-  const float clip_geometry = 2.0f * inv_n, clip_ior = 5.0f * inv_n;
+  const dr::TraceSettings trace = dt_test::TrainingBatch::trace();
+  const dt_test::TrainingBatch batch = dt_test::TrainingBatch::make(size);
+  const dt_test::TrainingBatch moved_batch = dt_test::TrainingBatch::make(size, true);
+  const std::vector<float>& rays = batch.rays;
+  const std::vector<float>& moved = moved_batch.rays;
+  const int group = dt_test::TrainingBatch::group;
+  const std::int64_t groups = batch.groups;
+  const auto loss = [&](std::int64_t j, const Vec3f* L, Vec3f* dL) { return batch.loss(j, L, dL); };
+  const float clip_geometry = batch.clip_geometry, clip_ior = batch.clip_ior;
   dr::SceneGradient host(s), host_moved(s), device(s);
   const dt_test::HostRayGroups h =
       dt_test::host_ray_group_gradient(s, rays, group, loss, host, trace, clip_geometry, clip_ior);
