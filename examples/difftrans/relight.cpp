@@ -3,7 +3,9 @@
 // training, 10 test views each), compared with the scene's ground truth
 // rendered under the same maps: images, metrics and a contact sheet per map.
 #include <cmath>
+#include <memory>
 #include <set>
+#include <string>
 
 #include "output_folder.hpp"
 #include "views.hpp"
@@ -97,23 +99,25 @@ void run(const RelightOptions& o) {
     sum_ssim += entry["ssim"].get<double>();
   };
   std::set<std::string> used_names;
+  // the GPU tracers of the scene and of the truth: made once, their BVH kept, updated per environment
+  std::unique_ptr<GpuViewTracer> gpu_scene, gpu_truth;
   for (std::size_t e = 0; e < envs.size(); ++e) {
     std::string name = envs[e].name();
     while (!used_names.insert(name).second) name += "_";
     progress("relight: environment " + std::to_string(e + 1) + "/" + std::to_string(envs.size()) + ": " + envs[e].spec);
     const fs::path dir = out.path() / name;
     apply_environment(s, envs[e]);
-    const std::unique_ptr<GpuViewTracer> gpu = gpu_tracer_for(o.device, s, "relight " + name);
-    const auto renders = render_views(s, views, options, dir, true, "relight " + name, nullptr, nullptr, gpu.get());
+    GpuViewTracer* gpu = gpu_tracer_kept(gpu_scene, o.device, s, "relight " + name);
+    const auto renders = render_views(s, views, options, dir, true, "relight " + name, nullptr, nullptr, gpu);
     io::Json entry = io::Json::object();
     if (is_truth) {
       entry = compare_with_truth(renders, &renders, dir, o.sheet_rows);
       add_metrics(entry);
     } else if (truth) {
       apply_environment(*truth, envs[e]);
-      const std::unique_ptr<GpuViewTracer> truth_gpu = gpu ? gpu_tracer_for(o.device, *truth, "relight " + name) : nullptr;
+      GpuViewTracer* truth_gpu = gpu ? gpu_tracer_kept(gpu_truth, o.device, *truth, "relight " + name) : nullptr;
       const auto reference = render_views(*truth, views, options, dir / "reference", true,
-                                          "relight " + name + " reference", nullptr, nullptr, truth_gpu.get());
+                                          "relight " + name + " reference", nullptr, nullptr, truth_gpu);
       entry = compare_with_truth(renders, &reference, dir, o.sheet_rows);
       add_metrics(entry);
     }

@@ -14,6 +14,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "command.hpp"
@@ -299,6 +300,22 @@ inline std::unique_ptr<GpuViewTracer> gpu_tracer_for(const std::string& device, 
   }
   progress(label + ": tracing on the GPU");
   return std::make_unique<GpuViewTracer>(s);
+}
+
+// gpu_tracer_for for a scene whose materials or environment change between
+// calls (relight): the tracer in `keep` is made once and updated after, its
+// BVH kept. Near-field environments are traced on the host (cuda fails).
+inline GpuViewTracer* gpu_tracer_kept(std::unique_ptr<GpuViewTracer>& keep, const std::string& device,
+                                      const render::HostScene& s, const std::string& label) {
+  if (device == "cpu") return nullptr;
+  if (!keep || s.near_field) {
+    std::unique_ptr<GpuViewTracer> made = gpu_tracer_for(device, s, label);
+    if (!made) return nullptr;
+    keep = std::move(made);
+    return keep.get();
+  }
+  keep->update(s);
+  return keep.get();
 }
 
 // The GPU training pass of stage 2 that --device asks for, or none (the

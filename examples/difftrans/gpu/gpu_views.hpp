@@ -38,6 +38,9 @@ class GpuViewTracer {
   GpuViewTracer& operator=(const GpuViewTracer&) = delete;
   // Linear RGB, width·height·3, as render::render_image.
   std::vector<float> render(const scene::Camera& cam, const render::PassOptions& options, GpuViewStats* stats);
+  // After the scene's materials or distant environment changed (not its
+  // mesh): uploads them again, keeping the BVH.
+  void update(const render::HostScene& s);
 
  private:
   struct Impl;

@@ -52,6 +52,8 @@ std::vector<float> GpuViewTracer::render(const scene::Camera& cam, const render:
   return image;
 }
 
+void GpuViewTracer::update(const render::HostScene& s) { impl_->scene.update(s, impl_->bvh); }
+
 struct GpuBatchTracer::Impl {
   std::vector<float> positions;       // of the BVH below
   std::vector<std::int32_t> triangles;

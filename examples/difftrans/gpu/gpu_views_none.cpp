@@ -21,6 +21,8 @@ std::vector<float> GpuViewTracer::render(const scene::Camera&, const render::Pas
   throw std::runtime_error(gpu_unavailable_reason());
 }
 
+void GpuViewTracer::update(const render::HostScene&) { throw std::runtime_error(gpu_unavailable_reason()); }
+
 struct GpuBatchTracer::Impl {};
 
 GpuBatchTracer::GpuBatchTracer() { throw std::runtime_error(gpu_unavailable_reason()); }
