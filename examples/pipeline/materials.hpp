@@ -330,6 +330,14 @@ struct Stage2Config {
   // this (ray_batch_gradient's clip_geometry, given clip_geometry / rays as
   // the loss is a mean over the rays); 0: off. See the note on the class.
   float clip_geometry = 1.0f;
+  // A pull of each vertex back to the stage-1 surface while the vertices
+  // move: d, its distance from its stage-1 position along the stage-1
+  // normal, adds anchor · (d / h) · g_rms · n to its gradient, h the stage-1
+  // mesh's mean edge length and g_rms the RMS over vertices of this step's
+  // vertex gradient (so that its strength does not depend on the loss's
+  // scale: at anchor 1, a vertex one edge off is pulled back as hard as a
+  // typical vertex is pushed). Sliding along the surface is free. 0: off.
+  float anchor = 0.0f;
   // While the vertices move, their gradient flows only through the main
   // refraction path of each camera ray, its first geometry_refractions
   // interactions (TraceSettings::gradient_refractions; 2: entry and exit, as
@@ -499,6 +507,11 @@ struct Stage2Config {
       c.fit_unseen_sky);
     v(Field{"lr_sky", "", "learning rate of the unseen sky's factor (its logarithm)"}, c.lr_sky);
     v(Field{"clip_geometry", "", "per-ray clip of the vertex gradient's norm (0: off)"}, c.clip_geometry);
+    v(Field{"anchor", "--materials-anchor",
+            "while the vertices move, pull each back to the stage-1 surface along its normal, as hard at one edge "
+            "length off as the RMS vertex gradient pushes (0: off)",
+            0, 1e6},
+      c.anchor);
     v(Field{"geometry_refractions", "--materials-geometry-refractions",
             "while the vertices move, their gradient flows through the main refraction path's first N "
             "interactions only (2: entry and exit; 0: every branch)", 0, render::max_trace_depth},
@@ -555,6 +568,23 @@ class Stage2 {
       : scene_(scene), views_(std::move(views)), mask_views_(std::move(mask_views)), config_(config),
         positions_(config.lambda, optim::AdamOptions{config.lr_positions, config.beta1_positions, 0.999f, 1e-8f}) {
     if (views_.empty()) throw std::invalid_argument("Stage2: no training views");
+    if (config_.anchor > 0.0f) {
+      stage1_positions_ = scene_.mesh.positions;
+      stage1_normals_ = scene_.mesh.vertex_normals;
+      const std::vector<std::int32_t>& t = scene_.mesh.triangles;
+      double sum = 0.0;
+      for (std::size_t f = 0; f + 2 < t.size(); f += 3)
+        for (int e = 0; e < 3; ++e) {
+          const std::size_t a = std::size_t(t[f + std::size_t(e)]), b = std::size_t(t[f + std::size_t((e + 1) % 3)]);
+          double l2 = 0.0;
+          for (int c = 0; c < 3; ++c) {
+            const double d = double(stage1_positions_[3 * a + c]) - double(stage1_positions_[3 * b + c]);
+            l2 += d * d;
+          }
+          sum += std::sqrt(l2);
+        }
+      stage1_edge_ = t.empty() ? 0.0f : float(sum / double(t.size()));
+    }
     scene_.ior = std::clamp(config_.ior_init, config_.ior_min, config_.ior_max);
     switch (config_.absorption_model) {
       case AbsorptionModel::none:
@@ -850,6 +880,7 @@ class Stage2 {
       st.mask = ms.mask;
     }
     st.loss = rb.loss + w.smoothness * st.smoothness + w.volume * st.volume + w.mask * st.mask;
+    if (st.geometry_moving && config_.anchor > 0.0f) anchor_to_stage1(grad.positions);
 
     // updates
     const float decay = std::pow(10.0f, -config_.lr_decay * float(it)) * anneal(it);
@@ -1753,6 +1784,24 @@ class Stage2 {
     environment_blur_ = sigma;
   }
 
+  // Stage2Config::anchor: adds the pull back to the stage-1 surface to the
+  // vertex gradient `g` (the stage-1 mesh: the one the stage started from).
+  void anchor_to_stage1(std::vector<float>& g) const {
+    const std::vector<float>& p = scene_.mesh.positions;
+    const std::size_t nv = p.size() / 3;
+    if (nv == 0 || stage1_positions_.size() != p.size()) return;
+    double g2 = 0.0;
+    for (float x : g) g2 += double(x) * double(x);
+    const double g_rms = std::sqrt(g2 / double(nv));
+    const double k = double(config_.anchor) * g_rms / std::max(double(stage1_edge_), 1e-12);
+    for (std::size_t v = 0; v < nv; ++v) {
+      const float* n = &stage1_normals_[3 * v];
+      double d = 0.0;
+      for (int c = 0; c < 3; ++c) d += double(p[3 * v + c] - stage1_positions_[3 * v + c]) * double(n[c]);
+      for (int c = 0; c < 3; ++c) g[3 * v + c] += float(k * d * double(n[c]));
+    }
+  }
+
   // The training pass over one batch: batch_gradient_ when set, else the host's.
   template <class Loss>
   RayBatchResult group_gradient(const std::vector<BatchRay>& rays, int group, Loss&& loss, SceneGradient& grad,
@@ -1763,6 +1812,8 @@ class Stage2 {
 
   HostScene& scene_;
   BatchGradient batch_gradient_;
+  std::vector<float> stage1_positions_, stage1_normals_;  // the mesh the stage started from (Stage2Config::anchor)
+  float stage1_edge_ = 0.0f;                              // its mean edge length
   std::vector<float> sharp_environment_;  // the map (distant maps only), its unseen sky scaled
   std::vector<float> base_environment_;   // the map as given
   std::vector<std::uint8_t> seen_;        // per texel: seen by a background pixel (set_seen_texels)
