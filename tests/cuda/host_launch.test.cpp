@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "support/ad_check.hpp"
+#include "support/scenes.hpp"
 #include "support/shapes.hpp"
 #include "training_batch.hpp"
 
@@ -51,16 +52,6 @@ double relative_l2(const std::vector<float>& a, const std::vector<float>& b) {
     den += double(b[i]) * b[i];
   }
   return std::sqrt(num / std::max(den, 1e-30));
-}
-
-// Spot, IoR 1.45, homogeneous absorption, under a smooth sky.
-difftrans::render::HostScene spot_scene() {
-  const Shape shape = load_normalized_mesh(std::string(DIFFTRANS_DATA_DIR) + "/meshes/spot.obj");
-  difftrans::render::HostScene s(shape.positions, shape.triangles, "spot");
-  s.ior = 1.45f;
-  s.set_environment_map(smooth_sky(32, 16), 32, 16);
-  s.set_homogeneous_absorption(Vec3f(0.3f, 0.6f, 1.2f));
-  return s;
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "support/ad_check.hpp"
+#include "support/scenes.hpp"
 #include "support/shapes.hpp"
 
 #include "difftrans/render/rounding_sensitivity.hpp"
@@ -18,15 +19,6 @@ using namespace dt_test;
 using difftrans::Vec3f;
 
 namespace {
-
-difftrans::render::HostScene spot_scene() {
-  const Shape shape = load_normalized_mesh(std::string(DIFFTRANS_DATA_DIR) + "/meshes/spot.obj");
-  difftrans::render::HostScene s(shape.positions, shape.triangles, "spot");
-  s.ior = 1.45f;
-  s.set_environment_map(smooth_sky(32, 16), 32, 16);
-  s.set_homogeneous_absorption(Vec3f(0.3f, 0.6f, 1.2f));
-  return s;
-}
 
 std::vector<float> wavy_adjoint(int size) {
   std::vector<float> a(std::size_t(size) * std::size_t(size) * 3);

@@ -1,6 +1,8 @@
 // Small host scenes shared by tests of different parts (BVH, device kernels).
 #pragma once
 
+#include <string>
+
 #include "difftrans/render/host_scene.hpp"
 #include "support/shapes.hpp"
 
@@ -12,6 +14,17 @@ inline difftrans::render::HostScene sphere_scene() {
   const Shape ico = make_icosphere(0.5f, 3);
   difftrans::render::HostScene s(ico.positions, ico.triangles, "sphere");
   s.ior = 1.5f;
+  s.set_environment_map(smooth_sky(32, 16), 32, 16);
+  s.set_homogeneous_absorption(difftrans::Vec3f(0.3f, 0.6f, 1.2f));
+  return s;
+}
+
+// Spot (the data folder's mesh, normalized), IoR 1.45, homogeneous
+// absorption, under the smooth test sky.
+inline difftrans::render::HostScene spot_scene() {
+  const Shape shape = load_normalized_mesh(std::string(DIFFTRANS_DATA_DIR) + "/meshes/spot.obj");
+  difftrans::render::HostScene s(shape.positions, shape.triangles, "spot");
+  s.ior = 1.45f;
   s.set_environment_map(smooth_sky(32, 16), 32, 16);
   s.set_homogeneous_absorption(difftrans::Vec3f(0.3f, 0.6f, 1.2f));
   return s;
