@@ -338,8 +338,10 @@ struct Stage2Config {
   // scale: at anchor 1, a vertex one edge off is pulled back as hard as a
   // typical vertex is pushed). Sliding along the surface is free. 0: off.
   // On monkey-bands (quick, seed 1) the vertex phase took the chamfer
-  // distance from 2.60e-5 to 3.92e-5 without it and to 2.27e-5 with 1, the
-  // normals to 8.39° and 8.07°, the IoR error to 0.038 and 0.025
+  // distance from 2.60e-5 to 3.92e-5 without it, to 2.35e-5 with 0.3 and
+  // 2.27e-5 with 1 (IoR error 0.038, 0.016, 0.025); on spot-clear, where the
+  // colour moves the surface towards the truth, it costs part of that gain
+  // (CD 1.27e-5 without, 1.46e-5 with 0.3, 1.77e-5 with 1)
   // (docs/stage2-diagnostics.md, "Anchored to stage 1").
   float anchor = 0.0f;
   // While the vertices move, their gradient flows only through the main
