@@ -22,6 +22,9 @@
 //        equal_quality --scene DIR [--view K] ...   a scene's test view K with
 //                      its gt/ mesh, material (IoR, absorption) and map
 //        --roulette T1,T2,...   more roulette curves at these thresholds
+//        --device cuda          the uniform curves traced on the GPU (the
+//                               time of a view: its launches and the image
+//                               read back); the adaptive ones need the host
 // Writes equal_quality.json into --out.
 #include <algorithm>
 #include <cmath>
@@ -31,6 +34,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <memory>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -48,6 +52,7 @@
 #include "difftrans/render/views.hpp"
 #include "difftrans/metrics/image.hpp"
 #include "support/timing.hpp"
+#include "gpu_views.hpp"
 
 namespace dr = difftrans::render;
 using difftrans::Vec3f;
@@ -102,7 +107,7 @@ std::vector<double> parse_list(const std::string& text) {
 
 int main(int argc, char** argv) {
   std::string mesh_name = "spot", env_name = "venice_sunset_1k.hdr", out_dir = ".", targets_text = "23,28,33",
-              scene_dir, roulette_text;
+              scene_dir, roulette_text, device = "cpu";
   float ior = 1.472f;
   int size = 128, view = 0;
   for (int i = 1; i + 1 < argc; i += 2) {
@@ -116,14 +121,23 @@ int main(int argc, char** argv) {
     else if (a == "--scene") scene_dir = argv[i + 1];
     else if (a == "--view") view = std::atoi(argv[i + 1]);
     else if (a == "--roulette") roulette_text = argv[i + 1];
+    else if (a == "--device") device = argv[i + 1];
     else {
       std::fprintf(stderr,
                    "equal_quality: unknown option %s\nusage: equal_quality [--mesh spot] [--ior 1.472] "
                    "[--env venice_sunset_1k.hdr] [--size 128] [--targets 23,28,33] [--scene DIR] [--view K] "
-                   "[--roulette T1,T2] [--out DIR]\n",
+                   "[--roulette T1,T2] [--device cpu|cuda] [--out DIR]\n",
                    a.c_str());
       return 2;
     }
+  }
+  if (device != "cpu" && device != "cuda") {
+    std::fprintf(stderr, "equal_quality: --device %s: expected cpu or cuda\n", device.c_str());
+    return 2;
+  }
+  if (device == "cuda" && !difftrans::cli::gpu_unavailable_reason().empty()) {
+    std::fprintf(stderr, "equal_quality: --device cuda: %s\n", difftrans::cli::gpu_unavailable_reason().c_str());
+    return 77;
   }
   const std::string data = DIFFTRANS_DATA_DIR;
   dr::HostScene s = [&] {
@@ -158,8 +172,8 @@ int main(int argc, char** argv) {
   size = cam.width;
   const difftrans::io::Mask mask = dr::object_mask(s, cam);
   const int threads = difftrans::ThreadPool::global().size();
-  std::fprintf(stderr, "equal_quality: %s (IoR %.3f) under %s, %d x %d, %d threads\n", mesh_name.c_str(), ior,
-               env_name.c_str(), cam.width, cam.height, threads);
+  std::fprintf(stderr, "equal_quality: %s (IoR %.3f) under %s, %d x %d, %d threads, device %s\n", mesh_name.c_str(),
+               ior, env_name.c_str(), cam.width, cam.height, threads, device.c_str());
 
   dr::PassOptions reference;
   reference.trace.max_depth = 16;
@@ -175,6 +189,12 @@ int main(int argc, char** argv) {
   converged_image.rgb = converged;
   const std::vector<std::uint8_t> converged8 = difftrans::io::tone_map(converged_image);
 
+  std::unique_ptr<difftrans::cli::GpuViewTracer> gpu;
+  if (device == "cuda") gpu = std::make_unique<difftrans::cli::GpuViewTracer>(s);
+  // one view with options o, on the host or the GPU
+  const auto render_view = [&](const dr::PassOptions& o) {
+    return gpu ? gpu->render(cam, o, nullptr) : dr::render_image<float>(s, cam, o);
+  };
   std::vector<Curve> curves;
   const auto uniform_curve = [&](const std::string& name, const std::string& what, const dr::PassOptions& base) {
     Curve c{name, what, {}};
@@ -184,7 +204,8 @@ int main(int argc, char** argv) {
       std::vector<float> img;
       Point pt;
       pt.budget = std::to_string(n) + "x" + std::to_string(n);
-      pt.seconds = dt_bench::best_seconds([&] { img = dr::render_image<float>(s, cam, o); });
+      if (gpu) img = render_view(o);  // the first launch of a setting warms up
+      pt.seconds = dt_bench::best_seconds([&] { img = render_view(o); });
       pt.psnr = object_psnr(img, converged8, mask);
       pt.samples = double(n * n);
       std::fprintf(stderr, "  %-14s %-8s %8.3f s  %6.2f dB\n", name.c_str(), pt.budget.c_str(), pt.seconds, pt.psnr);
@@ -231,13 +252,16 @@ int main(int argc, char** argv) {
   dr::PassOptions path = roulette;
   path.trace.tree_depth = 2;
   uniform_curve("roulette+path", "as roulette, the Fresnel tree for 2 interactions, one sampled branch beyond", path);
-  adaptive_curve("adaptive", "as roulette, adaptive: rounds of 2x2 samples, 2 to 64 of them", roulette);
-  adaptive_curve("adaptive+path", "as adaptive, the Fresnel tree for 2 interactions, one sampled branch beyond", path);
+  if (!gpu) {
+    adaptive_curve("adaptive", "as roulette, adaptive: rounds of 2x2 samples, 2 to 64 of them", roulette);
+    adaptive_curve("adaptive+path", "as adaptive, the Fresnel tree for 2 interactions, one sampled branch beyond",
+                   path);
+  }
 
   const std::vector<double> targets = parse_list(targets_text);
   nlohmann::json j;
   j["scene"] = {{"mesh", mesh_name},     {"ior", ior},         {"environment", env_name}, {"width", cam.width},
-                {"height", cam.height}, {"view", view}, {"threads", threads}};
+                {"height", cam.height}, {"view", view}, {"threads", threads}, {"device", device}};
   j["quality"] = "PSNR of the 8-bit tone-mapped image over object pixels against uniform 27 x 27, depth 16, no pruning";
   for (const Curve& c : curves) {
     nlohmann::json jc;

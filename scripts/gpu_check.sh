@@ -8,8 +8,10 @@
 #                                          installed, if not in /usr
 # Environment: BUILD (build folder, default build/gpu), CUDA_ARCH (default 90),
 # TARGETS (default: the device tests, bench_device_speed and the difftrans
-# command), STEPS (default: "tests command bench syntax"; "profile" runs Nsight
-# Compute on a small device pass), DEVICE (what the
+# command, equal_quality), STEPS (default: "tests command bench syntax";
+# "views", "pipeline": the two halves of "command"; "quality": time at equal
+# error on the device; "profile" runs Nsight Compute on a small device pass),
+# DEVICE (what the
 # command step passes to --device; default cuda), RENDER_TEST_ARGS (e.g.
 # "quick": the device render test at 64² only), COMMAND_DIR (where the command
 # step works; default $LOG_DIR/command), DEADLINE (epoch seconds: steps not
@@ -18,7 +20,7 @@
 # what names it misses: a newer compiler's standard library includes less
 # behind the scenes. The bench step writes speed.jsonl: the four meshes at 512²
 # and spot at 1024² (depth 16, 4 spp) with all cores, then the host passes
-# with 2 threads.
+# with 2 threads (the four at 512², spot at 1024²).
 set -uo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build=${BUILD:-$root/build/gpu}
@@ -32,7 +34,7 @@ args=(-S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DDIFFTRANS_CUD
 [ -n "$prefix" ] && args+=(-DCMAKE_PREFIX_PATH="$prefix")
 t0=$(date +%s)
 cmake "${args[@]}" >"$logs/configure.txt" 2>&1 || { tail -30 "$logs/configure.txt"; exit 1; }
-targets=${TARGETS:-test_cuda_launch test_cuda_render test_cuda_render_kernels test_cuda_host_launch bench_device_speed difftrans_command}
+targets=${TARGETS:-test_cuda_launch test_cuda_render test_cuda_render_kernels test_cuda_host_launch bench_device_speed difftrans_command equal_quality}
 # shellcheck disable=SC2086
 cmake --build "$build" --target $targets >"$logs/build.txt" 2>&1 || { grep -B2 -A12 "error" "$logs/build.txt" | head -80; exit 1; }
 echo "gpu_check: configured and built in $(( $(date +%s) - t0 )) s; warnings: $(grep -c 'warning' "$logs/build.txt")"
@@ -81,17 +83,21 @@ for step in ${STEPS:-tests command bench syntax}; do
     bench)
       exe=$build/bench/bench_device_speed
       s=$(date +%s)
-      { "$exe" --size 512 && "$exe" --size 1024 spot && DIFFTRANS_THREADS=2 "$exe" --host-only --repeats 1 --size 512; } \
+      { "$exe" --size 512 && "$exe" --size 1024 spot && DIFFTRANS_THREADS=2 "$exe" --host-only --repeats 1 --size 512 &&
+        DIFFTRANS_THREADS=2 "$exe" --host-only --repeats 1 --size 1024 spot; } \
         >"$logs/speed.jsonl" 2>"$logs/speed_errors.txt" || status=1
       echo "gpu_check: bench_device_speed in $(( $(date +%s) - s )) s"
       cat "$logs/speed.jsonl" ;;
-    command)
-      # the difftrans command on the device: render --device cuda against the
-      # host, and the quick spot-clear pipeline with stage 2's training rays
-      # on the device, then stage 2 again on the host from the same stage 1
+    command|views|pipeline|quality)
+      # the difftrans command on the device. views: render --device cuda
+      # against the host on the quick spot-clear scene's test views;
+      # pipeline: that scene reconstructed with stage 2's training rays on the
+      # device, then stage 2 again on the host from the same stage 1;
+      # command: both; quality: time per view at equal error on the device
+      # (bench/equal_quality.cpp --device cuda, test view 0)
       dt=$build/examples/difftrans
       w=${COMMAND_DIR:-$logs/command}  # its scenes, images and runs (COMMAND_DIR: elsewhere; the logs are copied back)
-      rm -rf "$w" && mkdir -p "$w" "$logs/command"
+      mkdir -p "$w" "$logs/command"
       export DIFFTRANS_DATA=$root/data
       timed() {  # timed NAME COMMAND...: runs it, logs to $w/NAME.txt, prints its exit status and time
         local name=$1; shift
@@ -102,22 +108,32 @@ for step in ${STEPS:-tests command bench syntax}; do
         return $rc
       }
       sc=$w/scene
-      timed synth "$dt" synth --preset spot-clear --variant quick --out "$sc" || continue
-      for d in cpu ${DEVICE:-cuda}; do
-        timed "render_$d" "$dt" render --mesh "$sc/gt/mesh.obj" --material "$sc/gt/material.json" --env "$sc/gt/envmap.hdr" \
-          --scene "$sc" --split test --out "$w/render_$d" --device "$d"
-        grep -E '"(device|seconds|seconds_per_view|segments)"' "$w/render_$d.txt" | head -6
-      done
-      timed render_compare "$dt" evaluate --pred-images "$w/render_${DEVICE:-cuda}/images" --gt-images "$w/render_cpu/images" &&
-        grep -E '"(psnr|max_abs|count)"' "$w/render_compare.txt" | head -4
-      timed pipeline_device "$dt" reconstruct "$sc" --out "$w/rec_device" --stages environment,geometry,materials \
-        --device "${DEVICE:-cuda}"
-      grep -E '^(environment|geometry|materials): (CD|IoR|training|absorption|it [0-9]+/[0-9]+ .*done)' \
-        "$w/pipeline_device.txt" | head -12
-      if [ -f "$w/rec_device/mesh_stage1.obj" ]; then
-        mkdir -p "$w/stage2_host" && cp -r "$w/rec_device/." "$w/stage2_host/"
-        timed stage2_host "$dt" reconstruct "$sc" --out "$w/stage2_host" --stages materials --device cpu --restart
-        grep -E '^materials: (IoR|training|absorption|it [0-9]+/[0-9]+ .*done)' "$w/stage2_host.txt" | head -6
+      [ -f "$sc/gt/mesh.obj" ] || timed synth "$dt" synth --preset spot-clear --variant quick --out "$sc" || continue
+      if [ "$step" = command ] || [ "$step" = views ]; then
+        for d in cpu ${DEVICE:-cuda}; do
+          timed "render_$d" "$dt" render --mesh "$sc/gt/mesh.obj" --material "$sc/gt/material.json" --env "$sc/gt/envmap.hdr" \
+            --scene "$sc" --split test --out "$w/render_$d" --device "$d"
+          grep -E '"(device|seconds|seconds_per_view|segments)"' "$w/render_$d.txt" | head -6
+        done
+        timed render_compare "$dt" evaluate --pred-images "$w/render_${DEVICE:-cuda}/images" --gt-images "$w/render_cpu/images" &&
+          grep -E '"(psnr|max_abs|count)"' "$w/render_compare.txt" | head -4
+      fi
+      if [ "$step" = command ] || [ "$step" = pipeline ]; then
+        rm -rf "$w/rec_device" "$w/stage2_host"
+        timed pipeline_device "$dt" reconstruct "$sc" --out "$w/rec_device" --stages environment,geometry,materials \
+          --device "${DEVICE:-cuda}"
+        grep -E '^(environment|geometry|materials): (CD|IoR|training|absorption|it [0-9]+/[0-9]+ .*done)' \
+          "$w/pipeline_device.txt" | head -12
+        if [ -f "$w/rec_device/mesh_stage1.obj" ]; then
+          mkdir -p "$w/stage2_host" && cp -r "$w/rec_device/." "$w/stage2_host/"
+          timed stage2_host "$dt" reconstruct "$sc" --out "$w/stage2_host" --stages materials --device cpu --restart
+          grep -E '^materials: (IoR|training|absorption|it [0-9]+/[0-9]+ .*done)' "$w/stage2_host.txt" | head -6
+        fi
+      fi
+      if [ "$step" = quality ]; then
+        timed equal_quality "$build/bench/equal_quality" --scene "$sc" --view 0 --device cuda --targets 27,32,34 \
+          --out "$w/equal_quality" && tail -8 "$w/equal_quality.txt"
+        cp "$w/equal_quality/equal_quality.json" "$logs/command/" 2>/dev/null
       fi
       if [ "$w" != "$logs/command" ]; then
         cp "$w"/*.txt "$logs/command/" 2>/dev/null

@@ -1,5 +1,6 @@
 // The device passes against the host passes, in one run: for each mesh at
-// one view, the primal image (render_image) and the gradient (render_gradient,
+// one view, the primal image (render_image: the wavefront, and a thread per
+// pixel as device_primal_per_pixel) and the gradient (render_gradient,
 // dLoss/dpixel = 1) on the GPU and on the host thread pool (its size from
 // DIFFTRANS_THREADS), with rays and segments per second. Prints one JSON line
 // per mesh; scripts/gpu_check.sh runs it with all cores and with 2 threads.
@@ -74,13 +75,17 @@ int main(int argc, char** argv) {
       dc::PassOptions opt;
       opt.trace = trace;
       opt.samples_per_axis = n;
-      dc::DevicePassStats ps, gs;
-      double primal_ms = 1e300, gradient_ms = 1e300;
+      dc::PassOptions per_pixel = opt;
+      per_pixel.wavefront = false;
+      dc::DevicePassStats ps, gs, pps;
+      double primal_ms = 1e300, gradient_ms = 1e300, pixel_ms = 1e300;
       const std::vector<float> adjoint(std::size_t(size) * std::size_t(size) * 3, 1.0f);
       dc::render_image(ds, cam, opt, &ps);  // warm-up
       for (int r = 0; r < repeats; ++r) {
         dc::render_image(ds, cam, opt, &ps);
         primal_ms = std::min(primal_ms, ps.milliseconds);
+        dc::render_image(ds, cam, per_pixel, &pps);
+        pixel_ms = std::min(pixel_ms, pps.milliseconds);
         dr::SceneGradient grad(s);
         dc::render_gradient(ds, cam, adjoint.data(), grad, opt, &gs);
         gradient_ms = std::min(gradient_ms, gs.milliseconds);
@@ -90,6 +95,9 @@ int main(int argc, char** argv) {
                   " \"device_gradient_waves\": %d, \"device_gradient_redone_pixels\": %lld",
                   primal_ms, gradient_ms, rays / primal_ms * 1e-3, double(ps.segments) / primal_ms * 1e-3,
                   double(gs.segments) / gradient_ms * 1e-3, gs.waves.waves, (long long)gs.waves.redone_pixels);
+      std::printf(", \"device_primal_launches\": %d, \"device_primal_per_pixel_ms\": %.4f,"
+                  " \"device_primal_per_pixel_Msegments_s\": %.2f",
+                  ps.wavefront.launches, pixel_ms, double(pps.segments) / pixel_ms * 1e-3);
     }
     std::printf("}\n");
     std::fflush(stdout);

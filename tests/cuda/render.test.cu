@@ -208,6 +208,21 @@ int compare_case(const Case& c) {
               double(dst.segments) / dst.milliseconds * 1e-3, host_seconds);
   compare_image("image", host, host1, host2, dev, 1e-4, 1.0, excluded, check);
   check.expect(dst.hits > dst.rays / 10, "image: rays hit the object", double(dst.hits), double(dst.rays));
+  // the wavefront (the default) against a thread per pixel on the same BVH:
+  // the same branches, so the same values up to the order of the sums
+  dc::PassOptions per_pixel = opt;
+  per_pixel.wavefront = false;
+  dc::DevicePassStats pst;
+  const std::vector<float> dev_pixel = dc::render_image(ds, cam, per_pixel, &pst);
+  double worst = 0;
+  for (std::size_t i = 0; i < dev.size(); ++i)
+    worst = std::max(worst, std::abs(double(dev[i]) - dev_pixel[i]) / (1e-3 + std::abs(double(dev_pixel[i]))));
+  std::printf("  image: wavefront %.3f ms in %d launches, a thread per pixel %.3f ms (%.1f M segments/s)\n",
+              dst.milliseconds, dst.wavefront.launches, pst.milliseconds,
+              double(pst.segments) / pst.milliseconds * 1e-3);
+  check.expect(dst.segments == pst.segments && dst.hits == pst.hits, "image: wavefront traces the same branches",
+               double(dst.segments), double(pst.segments));
+  check.expect(worst < 1e-4, "image: wavefront equals a thread per pixel", worst, 1e-4);
 
   // derivatives: along the IoR, and along a random direction in the
   // positions and the absorption

@@ -1,5 +1,5 @@
 // The host twin of the device passes: the kernels of cuda/render_kernels.hpp
-// launched on the thread pool instead of a CUDA grid, with the device's
+// (and the wavefront image of cuda/wavefront.hpp) launched on the thread pool instead of a CUDA grid, with the device's
 // schedule (run_gradient_waves: waves of tapes cut from one pool, pixels
 // whose tape overflowed taken back and redone on longer tapes, gradients
 // accumulated with atomic adds). Whatever in a device pass depends on the
@@ -17,6 +17,7 @@
 #include "difftrans/core/parallel.hpp"
 #include "difftrans/cuda/ray_groups.hpp"
 #include "difftrans/cuda/render_kernels.hpp"
+#include "difftrans/cuda/wavefront.hpp"
 #include "difftrans/render/host_scene.hpp"
 
 namespace difftrans::cuda {
@@ -51,6 +52,32 @@ class HostLaunch {
  private:
   std::uint32_t counters_[counter_count] = {};
 };
+
+// The device image with branches as work items (run_wavefront) on host
+// threads, over the portable BVH `bvh` of the scene's mesh; returns the
+// image (width·height·3), and what the schedule did in `run`.
+inline std::vector<float> twin_render_wavefront(const render::HostScene& s, const accel::Bvh& bvh,
+                                                const scene::Camera& cam, const render::TraceSettings& trace,
+                                                int samples_per_axis, const WavefrontSchedule& schedule,
+                                                WavefrontRun* run = nullptr, std::uint32_t* counters = nullptr) {
+  const std::int64_t pixels = std::int64_t(cam.width) * cam.height;
+  std::vector<float> image(std::size_t(pixels) * 3, 0.0f);
+  HostLaunch be;
+  const ad::ParamSet params = s.params();
+  PixelJob job;
+  job.scene = s.view(false);
+  job.bvh = bvh.view();
+  job.camera = cam;
+  job.trace = trace;
+  job.params = &params;
+  job.samples_per_axis = samples_per_axis;
+  job.image = image.data();
+  job.counters = be.counters();
+  const WavefrontRun r = run_wavefront(be, job, pixels, schedule);
+  if (run) *run = r;
+  if (counters) be.read_counters(counters);
+  return image;
+}
 
 // What the host twin of a reverse pass reports.
 struct TwinGradientStats {

@@ -6,6 +6,7 @@
 // with EmbreeScene, which nvcc would warn about in every device TU.)
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <memory>
 #include <stdexcept>
@@ -16,6 +17,7 @@
 #include "difftrans/cuda/launch.cuh"
 #include "difftrans/cuda/ray_groups.hpp"
 #include "difftrans/cuda/render_kernels.hpp"
+#include "difftrans/cuda/wavefront.hpp"
 #include "difftrans/render/host_scene.hpp"
 
 namespace difftrans::cuda {
@@ -127,6 +129,10 @@ struct PassOptions {
   render::TraceSettings trace;
   int samples_per_axis = 1;  // n: n² sub-pixel samples at the centres of an n×n grid
   GradientSchedule schedule = {1 << 12, 1 << 10, 1 << 21, 0};  // reverse mode: tapes, waves, redo
+  // The image: branches as work items (cuda/wavefront.hpp), or, false, a
+  // thread per pixel tracing its whole trees (RenderPixel).
+  bool wavefront = true;
+  WavefrontSchedule wavefront_schedule;
 };
 
 // The image (value) and its derivative along a direction.
@@ -139,7 +145,8 @@ struct DevicePassStats {
   std::uint64_t overflowed_rays = 0;  // Var: rays that overflowed a tape on some try
   std::uint32_t max_tape_nodes = 0;
   GradientWaves waves;                // Var: the schedule run_gradient_waves followed
-  double milliseconds = 0;            // kernel time (CUDA events)
+  WavefrontRun wavefront;             // the image with branches as work items: its launches
+  double milliseconds = 0;            // kernel time (CUDA events); the wavefront image: wall time of its launches
 };
 
 // cuda::launch, then waits for it; returns its time in milliseconds (CUDA events).
@@ -270,7 +277,8 @@ class DeviceGradients {
 
 }  // namespace detail
 
-// Linear RGB radiance, width·height·3 floats, as render::render_image.
+// Linear RGB radiance, width·height·3 floats, as render::render_image; by
+// default with branches as work items (opt.wavefront).
 inline std::vector<float> render_image(const DeviceScene& ds, const scene::Camera& cam,
                                        const PassOptions& opt = {}, DevicePassStats* stats = nullptr) {
   const std::size_t n = std::size_t(cam.width) * std::size_t(cam.height) * 3;
@@ -279,8 +287,30 @@ inline std::vector<float> render_image(const DeviceScene& ds, const scene::Camer
   DeviceBuffer<ad::ParamSet> params(1);
   const ad::ParamSet set = ds.params();
   params.upload(&set);
-  const PixelJob job = detail::make_job(ds, false, false, cam, opt, params.data(), image, counters);
-  detail::run_pixels(RenderPixel<float>{job}, cam, opt.samples_per_axis, counters, stats);
+  if (!opt.wavefront) {
+    const PixelJob job = detail::make_job(ds, false, false, cam, opt, params.data(), image, counters);
+    detail::run_pixels(RenderPixel<float>{job}, cam, opt.samples_per_axis, counters, stats);
+  } else {
+    DeviceLaunch be;
+    const std::vector<float> zeros(n, 0.0f);
+    image.upload(zeros.data());
+    PixelJob job = detail::make_job(ds, false, false, cam, opt, params.data(), image, counters);
+    job.counters = be.counters();
+    const auto t0 = std::chrono::steady_clock::now();
+    const WavefrontRun run = run_wavefront(be, job, std::int64_t(cam.width) * cam.height, opt.wavefront_schedule);
+    const double wall = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    if (stats) {
+      std::uint32_t c[counter_count];
+      be.read_counters(c);
+      *stats = DevicePassStats{};
+      stats->rays = std::uint64_t(cam.width) * std::uint64_t(cam.height) * std::uint64_t(opt.samples_per_axis) *
+                    std::uint64_t(opt.samples_per_axis);
+      stats->segments = c[counter_segments];
+      stats->hits = c[counter_hits];
+      stats->wavefront = run;
+      stats->milliseconds = wall;  // the launches and the queue lengths read back between them
+    }
+  }
   std::vector<float> out(n);
   image.download(out.data());
   return out;

@@ -26,19 +26,24 @@ struct ImageDerivative {
   std::vector<float> value, derivative;
 };
 
-// Calls f(origin, direction, weight) for the n × n stratified samples
-// (stratum centres) of pixel `pix` (row-major: pix = y · width + x), j-major;
-// weight = 1 / n². Every pass, host or device, samples a pixel this way, in
-// this order.
+// Sample k of the n × n stratified samples (stratum centres) of pixel `pix`
+// (row-major: pix = y · width + x), j-major: k = j · n + i. Every pass, host
+// or device, samples a pixel this way; each sample weighs 1 / n².
+DT_HOST_DEVICE inline scene::Ray pixel_sample(const scene::Camera& cam, int n, std::int64_t pix, int k) {
+  const float inv = 1.0f / float(n);
+  const int x = int(pix % cam.width), y = int(pix / cam.width);
+  return cam.generate_ray(x, y, (float(k % n) + 0.5f) * inv, (float(k / n) + 0.5f) * inv);
+}
+
+// Calls f(origin, direction, weight) for the n² samples of pixel `pix`, in
+// the order of pixel_sample.
 template <class F>
 DT_HOST_DEVICE void for_each_pixel_sample(const scene::Camera& cam, int n, std::int64_t pix, F&& f) {
-  const float inv = 1.0f / float(n), weight = 1.0f / float(n * n);
-  const int x = int(pix % cam.width), y = int(pix / cam.width);
-  for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i) {
-      const scene::Ray r = cam.generate_ray(x, y, (float(i) + 0.5f) * inv, (float(j) + 0.5f) * inv);
-      f(r.origin, r.direction, weight);
-    }
+  const float weight = 1.0f / float(n * n);
+  for (int k = 0; k < n * n; ++k) {
+    const scene::Ray r = pixel_sample(cam, n, pix, k);
+    f(r.origin, r.direction, weight);
+  }
 }
 
 }  // namespace difftrans::render

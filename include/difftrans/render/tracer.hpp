@@ -233,18 +233,105 @@ struct StreamBranches {
   }
 };
 
+// One branch's segment: it is sent to the BVH and either leaves the object,
+// and light(weight × what it sees) is called, or it meets the surface, where
+// its Fresnel children (the reflection first, then the refraction) are made
+// and child(branch) is called for each that survives the depth cut, the
+// drawn choice and the roulette; a branch that ends (cut, pruned, a
+// degenerate triangle) calls neither. The loop of follow() and the queued
+// branches of the device image (cuda/wavefront.hpp) both take their
+// branches through it. ray_hash: the camera ray's (camera_ray_hash); eta:
+// the IoR.
+template <class S, class Accel, class Reader, class Escape, class Light, class Child>
+DT_HOST_DEVICE DT_FORCEINLINE void interact(const SceneView& scene, const Accel& accel, Reader& reader,
+                                            const Branch<S>& b, const S& eta, std::uint64_t ray_hash,
+                                            const TraceSettings& settings, TraceStats& local, const Escape& escape,
+                                            Light&& light, Child&& child) {
+  using T = ad::scalar_t<S>;
+  const int max_depth = settings.max_depth < max_trace_depth ? settings.max_depth : max_trace_depth;
+  const Vec3f o = value_of(b.origin), d = value_of(b.direction);
+  ++local.segments;
+  const auto h = accel.intersect(o, d, 0.0f, 3.4e38f);
+  if (!h.hit()) {
+    light(b.weight * escape(reader, scene, b.origin, b.direction));
+    return;
+  }
+  ++local.hits;
+  scene::SurfaceHit<S> sh = scene::reevaluate_hit(reader, scene.mesh, h.prim, b.origin, b.direction, settings.normal_mode);
+  S t = sh.hit.t;
+  if (!sh.hit.valid || !sh.point.valid) {
+    // a (nearly) degenerate triangle: keep the BVH's answer, without derivatives
+    ++local.fallback_hits;
+    t = S(h.t);
+    sh.point = scene::surface_point(reader, scene.mesh, h.prim, S(h.u), S(h.v), settings.normal_mode);
+    if (!sh.point.valid) return;  // zero area: nothing to refract at
+  }
+  const Vec3<S> p = b.origin + b.direction * t;
+  const Vec3<S>& ng = sh.point.ng;
+  const Vec3<S> wi = -b.direction;
+  const T cos_geo = value_of(glm::dot(wi, ng));
+  // shading normal, unless it disagrees with the geometry about the side
+  const bool shading_agrees = (value_of(glm::dot(wi, sh.point.n)) > T(0)) == (cos_geo > T(0));
+  const Vec3<S> n = settings.smooth_normals && shading_agrees ? sh.point.n : ng;
+
+  Vec3<S> weight = b.weight;
+  if (cos_geo < T(0) && scene.absorption.kind != scene::AbsorptionKind::none)  // the segment ran inside the object
+    weight = weight * scene::transmittance(reader, scene.absorption, b.origin, p, settings.integration);
+
+  if (b.depth + 1 > max_depth) {
+    ++local.depth_cut;
+    local.cut_weight += mean_component(weight);
+    return;
+  }
+  const optics::InterfaceEvent<S> ev = optics::interface_event(wi, n, eta);
+  const float incoming_side = cos_geo > T(0) ? 1.0f : -1.0f;
+  if (!ev.tir) {
+    const float c2 = float(value_of(ev.cos_theta_t) * value_of(ev.cos_theta_t));
+    local.min_cos2_t = c2 < local.min_cos2_t ? c2 : local.min_cos2_t;
+  }
+
+  // the children; a zero Fresnel weight (R at eta = 1) spawns nothing
+  const bool refracts = !ev.tir && value_of(ev.T) > T(0);
+  const bool reflects = value_of(ev.R) > T(0);
+  if (ev.tir) ++local.tir;
+  bool take_r = reflects, take_t = refracts;
+  T choice = T(1);  // the probability of the child taken, beyond the tree
+  if (b.depth >= settings.tree_depth && reflects && refracts) {
+    const T r = value_of(ev.R), tt = value_of(ev.T);
+    const bool r_first = T(branch_random(ray_hash, b.path, 0u)) * (r + tt) < r;
+    take_r = r_first;
+    take_t = !r_first;
+    choice = (r_first ? r : tt) / (r + tt);
+  }
+  const Vec3<S> chosen = choice < T(1) ? weight * S(T(1) / choice) : weight;
+  for (int c = 0; c < 2; ++c) {  // the reflection first
+    if (!(c == 0 ? take_r : take_t)) continue;
+    Vec3<S> w = chosen * (c == 0 ? ev.R : ev.T);
+    const T level = max_component(w);
+    if (!(level >= T(settings.prune_throughput))) {
+      const T survive = level / T(settings.prune_throughput);
+      if (!settings.roulette || !(T(branch_random(ray_hash, b.path, 1u + std::uint32_t(c))) < survive)) {
+        ++local.pruned;
+        local.cut_weight += mean_component(w);
+        continue;
+      }
+      w = w * S(T(1) / survive);
+    }
+    const float side = c == 0 ? incoming_side : -incoming_side;
+    Branch<S> next{offset_origin(p, ng, side), c == 0 ? ev.wr : ev.wt, w, b.depth + 1,
+                   (b.path << 1) | std::uint32_t(c)};
+    child(next);
+  }
+}
+
 // The radiance the branch `root` brings to the camera: the branch and every
-// branch it spawns, depth first (the tracer's loop). ray_hash: the camera
-// ray's (camera_ray_hash), for the drawn and roulette choices; eta: the IoR;
-// collect: SumBranches or StreamBranches.
+// branch it spawns, depth first (the tracer's loop over interact()).
+// ray_hash: the camera ray's (camera_ray_hash), for the drawn and roulette
+// choices; eta: the IoR; collect: SumBranches or StreamBranches.
 template <class S, class Accel, class Reader, class Escape, class Collect = SumBranches>
 DT_HOST_DEVICE Vec3<S> follow(const SceneView& scene, const Accel& accel, Reader& reader, const Branch<S>& root,
                               const S& eta, std::uint64_t ray_hash, const TraceSettings& settings, TraceStats& local,
                               const Escape& escape, const Collect& collect = Collect{}) {
-  using T = ad::scalar_t<S>;
-  const int max_depth = settings.max_depth < max_trace_depth ? settings.max_depth : max_trace_depth;
-  const bool absorbing = scene.absorption.kind != scene::AbsorptionKind::none;
-
   Vec3<S> radiance(S(0), S(0), S(0));
   Branch<S> stack[max_trace_depth + 2];
   int top = 0;
@@ -253,94 +340,35 @@ DT_HOST_DEVICE Vec3<S> follow(const SceneView& scene, const Accel& accel, Reader
   while (top > 0) {
     const Branch<S> b = stack[--top];
     collect.taken(b);
-    const Vec3f o = value_of(b.origin), d = value_of(b.direction);
-    ++local.segments;
-    const auto h = accel.intersect(o, d, 0.0f, 3.4e38f);
-    if (!h.hit()) {
-      collect.add(radiance, b.weight * escape(reader, scene, b.origin, b.direction));
-      continue;
-    }
-    ++local.hits;
-    scene::SurfaceHit<S> sh =
-        scene::reevaluate_hit(reader, scene.mesh, h.prim, b.origin, b.direction, settings.normal_mode);
-    S t = sh.hit.t;
-    if (!sh.hit.valid || !sh.point.valid) {
-      // a (nearly) degenerate triangle: keep the BVH's answer, without derivatives
-      ++local.fallback_hits;
-      t = S(h.t);
-      sh.point = scene::surface_point(reader, scene.mesh, h.prim, S(h.u), S(h.v), settings.normal_mode);
-      if (!sh.point.valid) continue;  // zero area: nothing to refract at
-    }
-    const Vec3<S> p = b.origin + b.direction * t;
-    const Vec3<S>& ng = sh.point.ng;
-    const Vec3<S> wi = -b.direction;
-    const T cos_geo = value_of(glm::dot(wi, ng));
-    // shading normal, unless it disagrees with the geometry about the side
-    const bool shading_agrees = (value_of(glm::dot(wi, sh.point.n)) > T(0)) == (cos_geo > T(0));
-    const Vec3<S> n = settings.smooth_normals && shading_agrees ? sh.point.n : ng;
-
-    Vec3<S> weight = b.weight;
-    if (cos_geo < T(0) && absorbing)  // the segment ran inside the object
-      weight = weight * scene::transmittance(reader, scene.absorption, b.origin, p, settings.integration);
-
-    if (b.depth + 1 > max_depth) {
-      ++local.depth_cut;
-      local.cut_weight += mean_component(weight);
-      continue;
-    }
-    const optics::InterfaceEvent<S> ev = optics::interface_event(wi, n, eta);
-    const float incoming_side = cos_geo > T(0) ? 1.0f : -1.0f;
-    if (!ev.tir) {
-      const float c2 = float(value_of(ev.cos_theta_t) * value_of(ev.cos_theta_t));
-      local.min_cos2_t = c2 < local.min_cos2_t ? c2 : local.min_cos2_t;
-    }
-
-    // the children; a zero Fresnel weight (R at eta = 1) spawns nothing
-    const bool refracts = !ev.tir && value_of(ev.T) > T(0);
-    const bool reflects = value_of(ev.R) > T(0);
-    if (ev.tir) ++local.tir;
-    bool take_r = reflects, take_t = refracts;
-    T choice = T(1);  // the probability of the child taken, beyond the tree
-    if (b.depth >= settings.tree_depth && reflects && refracts) {
-      const T r = value_of(ev.R), tt = value_of(ev.T);
-      const bool r_first = T(branch_random(ray_hash, b.path, 0u)) * (r + tt) < r;
-      take_r = r_first;
-      take_t = !r_first;
-      choice = (r_first ? r : tt) / (r + tt);
-    }
-    const Vec3<S> chosen = choice < T(1) ? weight * S(T(1) / choice) : weight;
-    for (int child = 0; child < 2; ++child) {  // the reflection is pushed first, the refraction traced first
-      if (!(child == 0 ? take_r : take_t)) continue;
-      Vec3<S> w = chosen * (child == 0 ? ev.R : ev.T);
-      const T level = max_component(w);
-      if (!(level >= T(settings.prune_throughput))) {
-        const T survive = level / T(settings.prune_throughput);
-        if (!settings.roulette || !(T(branch_random(ray_hash, b.path, 1u + std::uint32_t(child))) < survive)) {
-          ++local.pruned;
-          local.cut_weight += mean_component(w);
-          continue;
-        }
-        w = w * S(T(1) / survive);
-      }
-      const float side = child == 0 ? incoming_side : -incoming_side;
-      Branch<S> next{offset_origin(p, ng, side), child == 0 ? ev.wr : ev.wt, w, b.depth + 1,
-                     (b.path << 1) | std::uint32_t(child)};
-      if constexpr (ad::is_ad_v<S>) {
-        if (!carries_derivatives(settings, next.depth, next.path)) {
-          // a constant: its whole subtree in plain floating point, off the tape
-          ad::ParamReader<T> values(reader.params());
-          const Branch<T> plain{value_of(next.origin), value_of(next.direction), value_of(next.weight), next.depth,
-                                next.path};
-          collect.add(radiance,
-                      lift<S>(follow<T>(scene, accel, values, plain, value_of(eta), ray_hash, settings, local, escape)));
-          continue;
-        }
-      }
-      collect.made(next);
-      stack[top++] = next;
-    }
+    interact<S>(
+        scene, accel, reader, b, eta, ray_hash, settings, local, escape,
+        [&](const Vec3<S>& light) { collect.add(radiance, light); },
+        [&](Branch<S>& next) {  // the reflection is pushed first, the refraction traced first
+          if constexpr (ad::is_ad_v<S>) {
+            using T = ad::scalar_t<S>;
+            if (!carries_derivatives(settings, next.depth, next.path)) {
+              // a constant: its whole subtree in plain floating point, off the tape
+              ad::ParamReader<T> values(reader.params());
+              const Branch<T> plain{value_of(next.origin), value_of(next.direction), value_of(next.weight),
+                                    next.depth, next.path};
+              collect.add(radiance, lift<S>(follow<T>(scene, accel, values, plain, value_of(eta), ray_hash, settings,
+                                                      local, escape)));
+              return;
+            }
+          }
+          collect.made(next);
+          stack[top++] = next;
+        });
   }
   return radiance;
+}
+
+// The hash of a camera ray's drawn and roulette choices (camera_ray_hash),
+// or 0 when the settings draw nothing.
+DT_HOST_DEVICE inline std::uint64_t choice_hash(const TraceSettings& settings, const Vec3f& origin,
+                                                const Vec3f& direction) {
+  const int max_depth = settings.max_depth < max_trace_depth ? settings.max_depth : max_trace_depth;
+  return settings.tree_depth < max_depth || settings.roulette ? camera_ray_hash(origin, direction) : 0u;
 }
 
 // The camera ray (origin, direction) as the root branch: the IoR read once,
@@ -350,10 +378,8 @@ DT_HOST_DEVICE Vec3<S> trace_camera_ray(const SceneView& scene, const Accel& acc
                                         const Vec3f& direction, const TraceSettings& settings, TraceStats* stats,
                                         const Escape& escape, const Collect& collect) {
   TraceStats local;
-  const int max_depth = settings.max_depth < max_trace_depth ? settings.max_depth : max_trace_depth;
   const S eta = ad::load<S>(reader, scene.ior, 0);
-  const std::uint64_t ray_hash =
-      settings.tree_depth < max_depth || settings.roulette ? camera_ray_hash(origin, direction) : 0u;
+  const std::uint64_t ray_hash = choice_hash(settings, origin, direction);
   Branch<S> root{lift<S>(origin), lift<S>(direction), Vec3<S>(S(1), S(1), S(1)), 0, 1u};
   collect.made(root);
   const Vec3<S> radiance = follow<S>(scene, accel, reader, root, eta, ray_hash, settings, local, escape, collect);
