@@ -208,7 +208,7 @@ int main(int argc, char** argv) {
       pt.seconds = dt_bench::best_seconds([&] { img = render_view(o); });
       pt.psnr = object_psnr(img, converged8, mask);
       pt.samples = double(n * n);
-      std::fprintf(stderr, "  %-14s %-8s %8.3f s  %6.2f dB\n", name.c_str(), pt.budget.c_str(), pt.seconds, pt.psnr);
+      std::fprintf(stderr, "  %-14s %-8s %9.4f s  %6.2f dB\n", name.c_str(), pt.budget.c_str(), pt.seconds, pt.psnr);
       c.points.push_back(pt);
     }
     curves.push_back(c);
@@ -230,7 +230,7 @@ int main(int argc, char** argv) {
       pt.seconds = dt_bench::best_seconds([&] { img = dr::render_image_adaptive(s, cam, base, a, &st); });
       pt.psnr = object_psnr(img, converged8, mask);
       pt.samples = st.mean_samples;
-      std::fprintf(stderr, "  %-14s %-8s %8.3f s  %6.2f dB  %.1f samples per pixel\n", name.c_str(), pt.budget.c_str(),
+      std::fprintf(stderr, "  %-14s %-8s %9.4f s  %6.2f dB  %.1f samples per pixel\n", name.c_str(), pt.budget.c_str(),
                    pt.seconds, pt.psnr, pt.samples);
       c.points.push_back(pt);
     }
@@ -282,8 +282,8 @@ int main(int argc, char** argv) {
       const double sec = seconds_at(c, target);
       char cell[64];
       if (sec < 0) std::snprintf(cell, sizeof cell, "not reached");
-      else if (base < 0) std::snprintf(cell, sizeof cell, "%.3f s", sec);
-      else std::snprintf(cell, sizeof cell, "%.3f s (%.2fx)", sec, base / sec);
+      else if (base < 0) std::snprintf(cell, sizeof cell, "%.4f s", sec);
+      else std::snprintf(cell, sizeof cell, "%.4f s (%.2fx)", sec, base / sec);
       std::printf(" %20s", cell);
       row[c.name] = {{"seconds", sec < 0 ? nlohmann::json(nullptr) : nlohmann::json(sec)},
                      {"speedup", sec < 0 || base < 0 ? nlohmann::json(nullptr) : nlohmann::json(base / sec)}};

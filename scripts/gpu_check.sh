@@ -140,17 +140,25 @@ for step in ${STEPS:-tests command bench syntax}; do
         for r in rec_device stage2_host; do [ -f "$w/$r/reconstruct.json" ] && cp "$w/$r/reconstruct.json" "$logs/command/$r.json"; done
       fi ;;
     profile)
-      # Nsight Compute on the first kernels of a small device pass (image, derivative, gradient):
-      # speed of light, occupancy, launch statistics, warp states
+      # Nsight Compute on the device image of spot at 512² (depth 16, 4 spp):
+      # every launch of the wavefront's first pass, then the first launch of
+      # the thread-per-pixel image and of the gradient: speed of light,
+      # occupancy, launch statistics, warp states
       ncu=$(command -v ncu || ls /usr/local/cuda/bin/ncu 2>/dev/null)
       [ -z "$ncu" ] && { echo "gpu_check: no ncu"; continue; }
       s=$(date +%s)
-      timeout 120 "$ncu" -k regex:for_each_index -c 3 --section SpeedOfLight --section Occupancy --section LaunchStats \
-        --section WarpStateStats "$build/bench/bench_device_speed" --device-only --size 256 --spp 1 --repeats 1 spot \
-        >"$logs/ncu.txt" 2>&1
-      echo "gpu_check: ncu exit $? in $(( $(date +%s) - s )) s"
-      grep -E "for_each_index|Duration|Compute \(SM\) Throughput|Memory Throughput|Achieved Occupancy|Registers Per|Theoretical Occupancy|Warp Cycles Per Issued|Local Memory|ERR" \
-        "$logs/ncu.txt" | head -40 ;;
+      sections=(--section SpeedOfLight --section Occupancy --section LaunchStats --section WarpStateStats --section MemoryWorkloadAnalysis)
+      timeout 150 "$ncu" --kernel-name-base mangled -k regex:WavefrontStep -c 17 "${sections[@]}" "$build/bench/bench_device_speed" --device-only \
+        --size 512 --spp 4 --repeats 1 spot >"$logs/ncu_wavefront.txt" 2>&1
+      echo "gpu_check: ncu (wavefront) exit $? in $(( $(date +%s) - s )) s"
+      timeout 150 "$ncu" --kernel-name-base mangled -k regex:'RenderPixel|PooledGradientPixel' -c 2 "${sections[@]}" "$build/bench/bench_device_speed" \
+        --device-only --size 512 --spp 4 --repeats 1 spot >"$logs/ncu.txt" 2>&1
+      echo "gpu_check: ncu (per pixel, gradient) exit $? in $(( $(date +%s) - s )) s"
+      for f in ncu_wavefront ncu; do
+        grep -E "for_each_index|Duration|Compute \(SM\) Throughput|Memory Throughput|L1/TEX Hit|Achieved Occupancy|Registers Per|Theoretical Occupancy|Warp Cycles Per Issued|Grid Size|Local Memory|ERR" \
+          "$logs/$f.txt" | sed 's/  */ /g' | head -200 > "$logs/$f.summary.txt"
+        head -60 "$logs/$f.summary.txt"
+      done ;;
     *) echo "gpu_check: unknown step $step"; status=1 ;;
   esac
 done

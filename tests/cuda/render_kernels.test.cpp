@@ -27,10 +27,7 @@ TEST_CASE("the device pixel kernels, run on the host, match the host passes") {
   // the same code the CUDA launches run, against render_image,
   // render_derivative and render_gradient (which use Embree)
   using namespace difftrans;
-  render::HostScene s = sphere_scene();
-  std::vector<float> raw(3 * 3 * 3 * 3);
-  for (std::size_t i = 0; i < raw.size(); ++i) raw[i] = scene::raw_from_sigma(0.2f + 0.15f * float(i % 5));
-  s.set_grid_absorption(Vec3i(3, 3, 3), Vec3f(-0.55f), Vec3f(0.55f), raw);
+  const render::HostScene s = absorbing_sphere_scene(3);
   const Bvh bvh(s.mesh.positions.data(), s.mesh.num_vertices(), s.mesh.triangles.data(), s.mesh.num_triangles(),
                 "sphere");
   const scene::Camera cam = scene::look_at_camera(Vec3f(0.2f, -0.3f, 1.5f), Vec3f(0.0f), Vec3f(0, 1, 0), 0.8f, 24, 20);
@@ -72,7 +69,7 @@ TEST_CASE("the device pixel kernels, run on the host, match the host passes") {
   CHECK(st.trace.hits > pixels);  // the sphere fills a good part of the view
 
   // Dual<float, 1> along the IoR and the absorption
-  std::vector<float> dir_abs(raw.size());
+  std::vector<float> dir_abs(s.absorption_raw.size());
   for (std::size_t i = 0; i < dir_abs.size(); ++i) dir_abs[i] = float(i % 3) - 0.7f;
   const float one = 1.0f;
   const float* direction[render::param_count] = {nullptr, &one, dir_abs.data(), nullptr};

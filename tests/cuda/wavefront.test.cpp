@@ -33,13 +33,7 @@ std::vector<float> per_pixel_image(const difftrans::render::HostScene& s, const 
   const int pixels = cam.width * cam.height;
   std::vector<float> image(std::size_t(pixels) * 3, 0.0f);
   const ad::ParamSet params = s.params();
-  cuda::PixelJob job;
-  job.scene = s.view(false);
-  job.bvh = bvh.view();
-  job.camera = cam;
-  job.trace = trace;
-  job.params = &params;
-  job.samples_per_axis = samples_per_axis;
+  cuda::PixelJob job = cuda::pixel_job(s.view(false), bvh.view(), cam, trace, &params, samples_per_axis);
   job.image = image.data();
   job.counters = counters;
   cuda::HostLaunch be;
@@ -102,10 +96,7 @@ TEST_CASE("the wavefront keeps the drawn and roulette choices of each camera ray
   // which the queued branches carry; the grid-absorbing sphere at depth 12
   // with tiny queues (most launches a slice of 16 branches)
   using namespace difftrans;
-  render::HostScene s = sphere_scene();
-  std::vector<float> raw(4 * 4 * 4 * 3);
-  for (std::size_t i = 0; i < raw.size(); ++i) raw[i] = scene::raw_from_sigma(0.2f + 0.15f * float(i % 5));
-  s.set_grid_absorption(Vec3i(4, 4, 4), Vec3f(-0.55f), Vec3f(0.55f), raw);
+  const render::HostScene s = absorbing_sphere_scene(4);
   const Bvh bvh(s.mesh.positions.data(), s.mesh.num_vertices(), s.mesh.triangles.data(), s.mesh.num_triangles(),
                 "sphere");
   const scene::Camera cam = scene::look_at_camera(Vec3f(0.2f, -0.3f, 1.5f), Vec3f(0.0f), Vec3f(0, 1, 0), 0.8f, 48, 40);

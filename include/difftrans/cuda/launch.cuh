@@ -39,6 +39,24 @@ void launch(int n, const F& f, int block = 128, cudaStream_t stream = 0) {
   check(cudaGetLastError(), "kernel launch");
 }
 
+// As for_each_index, for blocks of 64 threads, compiled so that MinBlocks
+// of them fit a multiprocessor at once (ptxas caps the registers to fit:
+// 16 blocks, 64 registers a thread; what does not fit in them spills).
+template <int MinBlocks, class F>
+__global__ void __launch_bounds__(64, MinBlocks) for_each_index_bounded(int n, F f) {
+  const int i = int(blockIdx.x) * 64 + int(threadIdx.x);
+  if (i < n) f(i);
+}
+
+// Runs f(i) for i in [0, n) on the device in blocks of 64 threads, with
+// registers capped so that MinBlocks blocks are resident per multiprocessor.
+template <int MinBlocks, class F>
+void launch_bounded(int n, const F& f, cudaStream_t stream = 0) {
+  if (n <= 0) return;
+  for_each_index_bounded<MinBlocks><<<(n + 63) / 64, 64, 0, stream>>>(n, f);
+  check(cudaGetLastError(), "kernel launch");
+}
+
 // An owning array in device memory.
 template <class T>
 class DeviceBuffer {

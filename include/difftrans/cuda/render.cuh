@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <memory>
 #include <stdexcept>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -132,6 +133,10 @@ struct PassOptions {
   // The image: branches as work items (cuda/wavefront.hpp), or, false, a
   // thread per pixel tracing its whole trees (RenderPixel).
   bool wavefront = true;
+  // The wavefront's kernel with registers capped for 16 resident blocks of
+  // 64 threads (WavefrontStepCapped: 6–16% faster on an H100, docs/cuda.md),
+  // or as the compiler likes.
+  bool wavefront_capped = true;
   WavefrontSchedule wavefront_schedule;
 };
 
@@ -149,14 +154,28 @@ struct DevicePassStats {
   double milliseconds = 0;            // kernel time (CUDA events); the wavefront image: wall time of its launches
 };
 
-// cuda::launch, then waits for it; returns its time in milliseconds (CUDA events).
+namespace detail {
+// A kernel's request for resident blocks (K::resident_blocks: launch_bounded), 0 when it has none.
+template <class K, class = void>
+struct resident_blocks {
+  static constexpr int value = 0;
+};
+template <class K>
+struct resident_blocks<K, std::void_t<decltype(K::resident_blocks)>> {
+  static constexpr int value = K::resident_blocks;
+};
+}  // namespace detail
+
+// cuda::launch (or launch_bounded, when the kernel asks for resident
+// blocks), then waits for it; returns its time in milliseconds (CUDA events).
 template <class K>
 float timed_launch(int n, const K& kernel, int block) {
   cudaEvent_t start, stop;
   check(cudaEventCreate(&start), "cudaEventCreate");
   check(cudaEventCreate(&stop), "cudaEventCreate");
   check(cudaEventRecord(start), "cudaEventRecord");
-  launch(n, kernel, block);
+  if constexpr (detail::resident_blocks<K>::value > 0) launch_bounded<detail::resident_blocks<K>::value>(n, kernel);
+  else launch(n, kernel, block);
   check(cudaEventRecord(stop), "cudaEventRecord");
   check(cudaEventSynchronize(stop), "kernel");
   float ms = 0;
@@ -232,13 +251,7 @@ void run_pixels(const K& kernel, const scene::Camera& cam, int samples, DeviceBu
 inline PixelJob make_job(const DeviceScene& ds, bool ad, bool reverse, const scene::Camera& cam,
                          const PassOptions& opt, const ad::ParamSet* d_params, DeviceBuffer<float>& image,
                          DeviceBuffer<std::uint32_t>& counters) {
-  PixelJob job;
-  job.scene = ds.view(ad, reverse);
-  job.bvh = ds.bvh();
-  job.camera = cam;
-  job.trace = opt.trace;
-  job.params = d_params;
-  job.samples_per_axis = opt.samples_per_axis;
+  PixelJob job = pixel_job(ds.view(ad, reverse), ds.bvh(), cam, opt.trace, d_params, opt.samples_per_axis);
   job.image = image.data();
   const std::uint32_t zero[counter_count] = {};
   counters.upload(zero);
@@ -297,7 +310,10 @@ inline std::vector<float> render_image(const DeviceScene& ds, const scene::Camer
     PixelJob job = detail::make_job(ds, false, false, cam, opt, params.data(), image, counters);
     job.counters = be.counters();
     const auto t0 = std::chrono::steady_clock::now();
-    const WavefrontRun run = run_wavefront(be, job, std::int64_t(cam.width) * cam.height, opt.wavefront_schedule);
+    const std::int64_t pixels = std::int64_t(cam.width) * cam.height;
+    const WavefrontRun run = opt.wavefront_capped
+                                 ? run_wavefront<WavefrontStepCapped>(be, job, pixels, opt.wavefront_schedule)
+                                 : run_wavefront(be, job, pixels, opt.wavefront_schedule);
     const double wall = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     if (stats) {
       std::uint32_t c[counter_count];
@@ -369,13 +385,7 @@ std::vector<float> render_gradient(const DeviceScene& ds, const scene::Camera& c
   params.upload(&set);
   // two-level normals (HostScene::view(true, true)): the normals' gradient is
   // folded into the positions on the host afterwards
-  PixelJob job;
-  job.scene = ds.view(true, true);
-  job.bvh = ds.bvh();
-  job.camera = cam;
-  job.trace = opt.trace;
-  job.params = params.data();
-  job.samples_per_axis = opt.samples_per_axis;
+  PixelJob job = pixel_job(ds.view(true, true), ds.bvh(), cam, opt.trace, params.data(), opt.samples_per_axis);
   job.image = image.data();
   job.pixel_adjoint = adjoint->data();
   job.counters = be.counters();

@@ -36,6 +36,20 @@ struct PixelJob {
   std::uint32_t* counters = nullptr;  // optional, see PixelCounter
 };
 
+// A job over a scene view and a BVH for one camera; its outputs (image,
+// derivative, adjoint, counters) are left to the caller.
+inline PixelJob pixel_job(const render::SceneView& scene, const accel::BvhView& bvh, const scene::Camera& camera,
+                          const render::TraceSettings& trace, const ad::ParamSet* params, int samples_per_axis) {
+  PixelJob job;
+  job.scene = scene;
+  job.bvh = bvh;
+  job.camera = camera;
+  job.trace = trace;
+  job.params = params;
+  job.samples_per_axis = samples_per_axis;
+  return job;
+}
+
 // Counters a pass may ask for (atomically added).
 enum PixelCounter : int {
   counter_segments = 0,  // rays sent to the BVH

@@ -105,6 +105,14 @@ struct WavefrontStep {
   }
 };
 
+// The same step, compiled with its registers capped so that 16 blocks of 64
+// threads stay resident per multiprocessor (on the device; cuda/launch.cuh,
+// launch_bounded): more rays in flight to hide the BVH's memory latency,
+// against whatever spills.
+struct WavefrontStepCapped : WavefrontStep {
+  static constexpr int resident_blocks = 16;
+};
+
 // How the wavefront is scheduled: the capacity of each depth's queue
 // (branches; 64 bytes each). Camera rays enter half a queue at a time.
 struct WavefrontSchedule {
@@ -122,7 +130,7 @@ struct WavefrontRun {
 // The image pass over `pixels` pixels with the launch backend B (as
 // detail::run_waves: make, launch, upload, download): job.image must hold
 // zeros; job.counters, if set, the backend's counters.
-template <class B>
+template <class Step = WavefrontStep, class B>
 WavefrontRun run_wavefront(B& be, const PixelJob& job, std::int64_t pixels, const WavefrontSchedule& schedule) {
   WavefrontRun run;
   const int max_depth = std::min(job.trace.max_depth, render::max_trace_depth);
@@ -134,7 +142,8 @@ WavefrontRun run_wavefront(B& be, const PixelJob& job, std::int64_t pixels, cons
   std::vector<Queue> queues;                    // queues[d - 1]: branches of depth d
   std::vector<std::int64_t> count(std::size_t(max_depth) + 2, 0);
   auto out_count = be.template make<std::uint32_t>(1);
-  WavefrontStep step{job};
+  Step step;
+  step.job = job;
   step.out_count = out_count.data();
   std::int64_t next = 0;  // the next camera sample
   const std::uint32_t zero = 0;
