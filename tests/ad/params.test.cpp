@@ -103,3 +103,42 @@ TEST_CASE("scatter_from scatters the leaves read from a tape node on, and keeps 
   CHECK(rev.size() == 0);
   CHECK(g[0] == 3.0f);
 }
+
+TEST_CASE("scatter_clipped caps the gradient's norm per clip class") {
+  // f = 3 x0 + 4 x1 + 12 y + 5 z: buffers 0 and 2 in class 1 (norm 13),
+  // buffer 1 in class 2 (norm 4), buffer 3 in no class
+  float x[2] = {1.0f, 1.0f}, y[1] = {1.0f}, z[1] = {1.0f}, w[1] = {1.0f};
+  float gx[2] = {0, 0}, gy[1] = {0}, gz[1] = {0}, gw[1] = {0};
+  ad::ParamSet set;
+  set.buffers[0] = {x, 2, gx};
+  set.buffers[1] = {w, 1, gw};
+  set.buffers[2] = {y, 1, gy};
+  set.buffers[3] = {z, 1, gz};
+  const auto f = [](auto& reader) {
+    return 3.0f * reader.read(0, 0) + 4.0f * reader.read(0, 1) + 4.0f * reader.read(1, 0) + 12.0f * reader.read(2, 0) +
+           5.0f * reader.read(3, 0);
+  };
+  std::int8_t classes[ad::max_param_buffers] = {1, 2, 1, 0};
+  const auto run = [&](float cap1, float cap2) {
+    for (float* g : {gx, gx + 1, gy, gz, gw}) *g = 0.0f;
+    ad::Tape<float> tape(64);
+    ad::LeafRecord log[8];
+    ad::ParamReader<ad::Var<float>> rev(&set, &tape, log, 8);
+    tape.backward(f(rev));
+    const float caps[2] = {cap1, cap2};
+    return rev.scatter_clipped(classes, caps);
+  };
+  CHECK(run(6.5f, 0.0f) == 1);  // class 1 halved, class 2 uncapped
+  CHECK(gx[0] == doctest::Approx(1.5));
+  CHECK(gx[1] == doctest::Approx(2.0));
+  CHECK(gy[0] == doctest::Approx(6.0));
+  CHECK(gw[0] == doctest::Approx(4.0));
+  CHECK(gz[0] == doctest::Approx(5.0));  // in no class: never capped
+  CHECK(run(20.0f, 1.0f) == 2);          // class 1 under its cap, class 2 capped to 1
+  CHECK(gx[0] == doctest::Approx(3.0));
+  CHECK(gy[0] == doctest::Approx(12.0));
+  CHECK(gw[0] == doctest::Approx(1.0));
+  CHECK(run(1.3f, 2.0f) == 3);
+  CHECK(gx[1] == doctest::Approx(0.4));
+  CHECK(gw[0] == doctest::Approx(2.0));
+}

@@ -10,6 +10,7 @@
 // Only the parameters a ray touches become leaves, so a tape stays small.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 
 #include "difftrans/ad/dual.hpp"
@@ -149,6 +150,30 @@ class ParamReader<Var<T>> {
       if (g && a != T(0)) detail::atomic_add(g + r.index, float(a * scale_per_buffer[r.buffer]));
     }
     count_ = 0;
+  }
+
+  // scatter_scaled() with the norm of the gradient capped per clip class:
+  // the buffers b with clip_class[b] = c (1 or 2; 0: no cap) share one L2
+  // norm, scaled down to clip[c − 1] where it is above that (clip ≤ 0: no
+  // cap). Returns bit c − 1 set for each class that was capped.
+  DT_HOST_DEVICE int scatter_clipped(const std::int8_t* clip_class, const float* clip) {
+    T scale[max_param_buffers];
+    for (T& x : scale) x = T(1);
+    int capped = 0;
+    for (int c = 1; c <= 2; ++c) {
+      const T cap = T(clip[c - 1]);
+      if (!(cap > T(0))) continue;
+      T n2 = T(0);
+      for (int b = 0; b < max_param_buffers; ++b)
+        if (clip_class[b] == c) n2 += adjoint_norm2(b);
+      if (n2 > cap * cap) {
+        for (int b = 0; b < max_param_buffers; ++b)
+          if (clip_class[b] == c) scale[b] = cap / std::sqrt(n2);
+        capped |= 1 << (c - 1);
+      }
+    }
+    scatter_scaled(scale);
+    return capped;
   }
 
   // Forget the log without scattering (e.g. when the tape is rewound).

@@ -126,10 +126,7 @@ RayGroupRun twin_ray_group_gradient(const render::HostScene& s, const accel::Bvh
   job.trace = trace;
   job.params = &params;
   job.group = group;
-  job.clip_class[render::param_positions] = job.clip_class[render::param_normals] = 1;
-  job.clip_class[render::param_ior] = 2;
-  job.clip[0] = clip_geometry;
-  job.clip[1] = clip_ior;
+  job.clip = render::vertex_and_ior_clip(clip_geometry, clip_ior);
   const std::int64_t n = std::int64_t(rays.size() / 6);
   std::vector<float> L(std::size_t(n) * 3, 0.0f);
   const RayGroupRun run = run_ray_groups(be, job, rays.data(), n, loss, schedule, L.data());

@@ -8,7 +8,6 @@
 // on host threads by cuda/host_launch.hpp (twin_ray_group_gradient).
 #pragma once
 
-#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -16,6 +15,7 @@
 #include "difftrans/accel/bvh.hpp"
 #include "difftrans/ad/ad.hpp"
 #include "difftrans/cuda/render_kernels.hpp"
+#include "difftrans/render/host_scene.hpp"
 #include "difftrans/render/tracer.hpp"
 
 namespace difftrans::cuda {
@@ -33,11 +33,9 @@ struct RayJob {
   int group = 1;                     // rays per group
   float* radiance = nullptr;         // RayRadiance: 3 per ray, written
   const float* adjoint = nullptr;    // GroupGradient: dLoss/dradiance, 3 per ray
-  // GroupGradient: a group's gradient w.r.t. the buffers b of clip class
-  // clip_class[b] = c (1 or 2; 0: none) has its L2 norm capped at clip[c − 1]
-  // (0: no cap); e.g. the vertices (positions and normals together) and the IoR.
-  std::int8_t clip_class[ad::max_param_buffers] = {};
-  float clip[2] = {0.0f, 0.0f};
+  // GroupGradient: a group's gradient capped per clip class
+  // (ad::ParamReader::scatter_clipped; render::vertex_and_ior_clip)
+  render::GroupClip clip;
   std::uint32_t* counters = nullptr;  // optional, see PixelCounter
 };
 
@@ -110,21 +108,11 @@ struct GroupGradient {
       return;
     }
     tape.propagate();
-    float scale[ad::max_param_buffers];
-    for (float& x : scale) x = 1.0f;
-    for (int c = 1; c <= 2; ++c) {
-      const float cap = job.clip[c - 1];
-      if (!(cap > 0.0f)) continue;
-      float n2 = 0.0f;
-      for (int b = 0; b < ad::max_param_buffers; ++b)
-        if (job.clip_class[b] == c) n2 += reader.adjoint_norm2(b);
-      if (n2 > cap * cap) {
-        for (int b = 0; b < ad::max_param_buffers; ++b)
-          if (job.clip_class[b] == c) scale[b] = cap / std::sqrt(n2);
-        if (job.counters) detail::counter_add(job.counters + (c == 1 ? counter_clipped_1 : counter_clipped_2), 1u);
-      }
+    const int capped = reader.scatter_clipped(job.clip.classes, job.clip.caps);
+    if (job.counters) {
+      if (capped & 1) detail::counter_add(job.counters + counter_clipped_1, 1u);
+      if (capped & 2) detail::counter_add(job.counters + counter_clipped_2, 1u);
     }
-    reader.scatter_scaled(scale);
   }
 };
 

@@ -453,10 +453,7 @@ RayGroupStats ray_group_gradient(const DeviceScene& ds, const std::vector<float>
   job.trace = opt.trace;
   job.params = params.data();
   job.group = group;
-  job.clip_class[render::param_positions] = job.clip_class[render::param_normals] = 1;
-  job.clip_class[render::param_ior] = 2;
-  job.clip[0] = clip_geometry;
-  job.clip[1] = clip_ior;
+  job.clip = render::vertex_and_ior_clip(clip_geometry, clip_ior);
   GradientSchedule schedule = opt.schedule;
   if (schedule.tape_memory == 0) schedule.tape_memory = DeviceLaunch::half_free_memory();
   const std::int64_t n = std::int64_t(rays.size() / 6);

@@ -57,7 +57,7 @@ enum PixelCounter : int {
   counter_overflow = 2,  // Var: rays whose tape or leaf log overflowed (part of their gradient lost)
   counter_max_tape = 3,  // Var: largest tape (nodes) of any ray (its peak in the streamed trace)
   counter_overflow_pixels = 4,  // Var: entries written to an overflow list (pixels or ray groups)
-  counter_clipped_1 = 5,         // ray groups: groups whose clip class 1 was clipped (RayJob::clip_class)
+  counter_clipped_1 = 5,         // ray groups: groups whose clip class 1 was clipped (RayJob::clip)
   counter_clipped_2 = 6,         // ray groups: likewise class 2
   counter_count = 7,
 };

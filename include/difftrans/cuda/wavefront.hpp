@@ -135,8 +135,10 @@ WavefrontRun run_wavefront(B& be, const PixelJob& job, std::int64_t pixels, cons
   WavefrontRun run;
   const int max_depth = std::min(job.trace.max_depth, render::max_trace_depth);
   const std::int64_t samples = pixels * job.samples_per_axis * job.samples_per_axis;
-  // a queue as long as two camera waves at most, and even
-  const std::int64_t capacity = std::max<std::int64_t>(2, std::min(schedule.queue_capacity, 2 * samples)) & ~std::int64_t(1);
+  // a queue as long as two camera waves at most, even, and counted in 32 bits
+  const std::int64_t capacity =
+      std::max<std::int64_t>(2, std::min({schedule.queue_capacity, 2 * samples, std::int64_t(1) << 31})) &
+      ~std::int64_t(1);
   const std::int64_t wave = capacity / 2;
   using Queue = decltype(be.template make<QueuedBranch>(1));
   std::vector<Queue> queues;                    // queues[d - 1]: branches of depth d

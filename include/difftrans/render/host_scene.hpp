@@ -42,6 +42,24 @@ enum ParamId : int {
   param_count = 5,
 };
 
+// How stage 2's training pass caps each group's gradient before adding it
+// (the clip classes of ad::ParamReader::scatter_clipped, on the host and on
+// the device): the vertices (positions and normals together) at L2 norm
+// `geometry`, the IoR at `ior` in magnitude; 0: no cap.
+struct GroupClip {
+  std::int8_t classes[ad::max_param_buffers] = {};
+  float caps[2] = {0.0f, 0.0f};
+};
+
+inline GroupClip vertex_and_ior_clip(float geometry, float ior) {
+  GroupClip c;
+  c.classes[param_positions] = c.classes[param_normals] = 1;
+  c.classes[param_ior] = 2;
+  c.caps[0] = geometry;
+  c.caps[1] = ior;
+  return c;
+}
+
 class HostScene {
  public:
   scene::TriangleMesh mesh;

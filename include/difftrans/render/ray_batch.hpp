@@ -6,7 +6,6 @@
 // cosine) allows.
 #pragma once
 
-#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <stdexcept>
@@ -78,6 +77,7 @@ RayBatchResult ray_group_gradient(const HostScene& s, const std::vector<BatchRay
   detail::StatsPerWorker st(pool.size());
   std::vector<double> losses(std::size_t(blocks.count()), 0.0);
   std::vector<std::int64_t> clipped(std::size_t(blocks.count()), 0), clipped_ior(std::size_t(blocks.count()), 0);
+  const GroupClip clip = vertex_and_ior_clip(clip_geometry, clip_ior);
   detail::WorkerTapes<T> tapes(pool.size(), opt);
   pool.parallel_for(blocks.count(), 1, [&](std::int64_t kb, std::int64_t ke, int w) {
     PassStats& ps = st.per[std::size_t(w)];
@@ -122,23 +122,9 @@ RayBatchResult ray_group_gradient(const HostScene& s, const std::vector<BatchRay
           for (int c = 0; c < 3; ++c) tape->seed(L[std::size_t(q)][c], T(adjoint[std::size_t(q)][c]));
         tape->propagate();
         if (clip_geometry > 0.0f || clip_ior > 0.0f) {  // this group's gradients, clipped
-          T scale[ad::max_param_buffers];
-          for (T& x : scale) x = T(1);
-          if (clip_geometry > 0.0f) {  // w.r.t. the vertices (positions and normals together)
-            const T n2 = reader.adjoint_norm2(param_positions) + reader.adjoint_norm2(param_normals);
-            if (n2 > T(clip_geometry) * T(clip_geometry)) {
-              scale[param_positions] = scale[param_normals] = T(clip_geometry) / std::sqrt(n2);
-              ++clipped[std::size_t(k)];
-            }
-          }
-          if (clip_ior > 0.0f) {
-            const T n2 = reader.adjoint_norm2(param_ior);
-            if (n2 > T(clip_ior) * T(clip_ior)) {
-              scale[param_ior] = T(clip_ior) / std::sqrt(n2);
-              ++clipped_ior[std::size_t(k)];
-            }
-          }
-          reader.scatter_scaled(scale);
+          const int capped = reader.scatter_clipped(clip.classes, clip.caps);
+          clipped[std::size_t(k)] += capped & 1;
+          clipped_ior[std::size_t(k)] += (capped >> 1) & 1;
         } else {
           reader.scatter();
         }
