@@ -23,19 +23,6 @@ using namespace dt_test;
 using difftrans::Vec3f;
 using difftrans::accel::Bvh;
 
-namespace {
-
-double relative_l2(const std::vector<float>& a, const std::vector<float>& b) {
-  double num = 0, den = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    num += (double(a[i]) - b[i]) * (double(a[i]) - b[i]);
-    den += double(b[i]) * b[i];
-  }
-  return std::sqrt(num / std::max(den, 1e-30));
-}
-
-}  // namespace
-
 TEST_CASE("stage 2's training pass on the device's schedule, on host threads, against the host pass") {
   // cuda::twin_ray_group_gradient (run_ray_groups: the radiance of every ray,
   // the loss on the host, then each group's clipped gradient on one tape, in

@@ -21,7 +21,8 @@
 #include "difftrans/render/pass_options.hpp"
 #include "difftrans/render/tracer.hpp"
 
-// (seen by both of nvcc's passes: the host stub must know what the device pass declared)
+// Both of nvcc's passes include these: the host stub it generates names what
+// the device pass declared.
 #if defined(__CUDACC__)
 #include <cooperative_groups.h>
 #include <cooperative_groups/reduce.h>
