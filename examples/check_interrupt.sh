@@ -10,7 +10,8 @@ bin=$1 scene=$2 out=$3
 # whole each time it publishes (output_folder.hpp), so a file another program
 # writes inside OUT during the run is not kept
 aside=$out.check
-fail() { echo "check_interrupt: $*" >&2; [ -f "$aside/log" ] && tail -5 "$aside/log" >&2; exit 1; }
+# (the whole log of the last run: whether and where it resumed is at its top)
+fail() { echo "check_interrupt: $*" >&2; [ -f "$aside/log" ] && tail -40 "$aside/log" >&2; exit 1; }
 rm -rf "$out" "$aside"
 mkdir -p "$aside"
 stage2=(--materials-rays 1024 --materials-freeze 5 --absorption-res 3 --test-spp-axis 1 --checkpoint-every 3)

@@ -61,9 +61,12 @@ class StopSignals {
 inline int stop_requested() { return int(detail::stop_signal); }
 
 // Call between iterations, after the checkpoint is saved: throws Interrupted
-// when a signal arrived, saying where the work is kept.
-inline void stop_if_requested(const std::string& stage, const std::string& kept) {
-  if (const int sig = stop_requested())
+// when a signal arrived, saying where the work is kept. A loop that decides
+// whether to save from one reading of stop_requested() passes that reading
+// as `sig`: a signal arriving between the decision and this call must not
+// stop it with a message about a checkpoint it did not write.
+inline void stop_if_requested(const std::string& stage, const std::string& kept, int sig = stop_requested()) {
+  if (sig)
     throw Interrupted(sig, stage + ": stopped by " + (sig == SIGINT ? std::string("SIGINT") : std::string("SIGTERM")) +
                                "; " + kept + ". Run the same command again to go on from there.");
 }

@@ -306,7 +306,8 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
                                          (st.geometry_moving ? " mask " + fixed(st.mask, 5) + " lambda " + fixed(st.lambda, 2) : std::string()) + "  " +
                                          fixed(st.seconds, 3) + " s/it" +
                                          (st.skipped_rays ? "  skipped " + std::to_string(st.skipped_rays) : std::string()));
-      if (stop_requested() || stage.done() ||
+      const int stop = stop_requested();  // read once: the save and the stop below agree
+      if (stop || stage.done() ||
           (run.checkpoint_every > 0 && stage.iteration() % run.checkpoint_every == 0) ||
           std::chrono::duration<double>(clock::now() - last_save).count() > 60.0) {
         save();
@@ -314,7 +315,7 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
         last_save = clock::now();
       }
       stop_if_requested("materials", "the fit at iteration " + std::to_string(stage.iteration()) + " is saved in " +
-                                         folder.shown(ckpt_path).string());
+                                         folder.shown(ckpt_path).string(), stop);
     }
     meter.finish();
   }
