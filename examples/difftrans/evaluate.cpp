@@ -68,27 +68,9 @@ void write_error_map(const EvaluateOptions& o, const io::Mesh& pred, const io::M
   // the same colours as a picture: the mesh from the front, the right, the
   // back, the left (first row), above and below, and the scale (a bar from 0
   // at the bottom to `scale` and beyond at the top)
-  std::vector<float> positions;
-  std::vector<std::int32_t> triangles;
-  for (const Vec3f& q : pred.positions) positions.insert(positions.end(), {q.x, q.y, q.z});
-  for (const Vec3i& t : pred.triangles) triangles.insert(triangles.end(), {t.x, t.y, t.z});
-  const int size = 200;
-  std::vector<std::vector<io::Image8>> rows(2);
-  for (const scene::Camera& cam : render::cameras_around(positions, size))
-    rows[rows[0].size() < 4 ? 0 : 1].push_back(render::vertex_colour_picture(positions, triangles, colours, cam));
-  io::Image8 bar{size, size, 3, std::vector<std::uint8_t>(std::size_t(size) * size * 3, 40)};
-  for (int y = 8; y < size - 8; ++y)
-    for (int x = size / 2 - 12; x < size / 2 + 12; ++x) {
-      const auto c = io::heat_color(float(size - 8 - y) / float(size - 16));
-      std::copy(c.begin(), c.end(), &bar.data[3 * (std::size_t(y) * size + std::size_t(x))]);
-    }
-  rows[1].push_back(bar);
-  io::SheetLayout layout;
-  layout.tile_width = layout.tile_height = size;
-  layout.rows = 2;
-  layout.cols = 4;
   const fs::path picture = fs::path(o.error_map).replace_extension(".png");
-  io::write_png8(picture, io::compose_sheet(layout, rows));
+  io::write_png8(picture, render::vertex_colour_sheet(io::flat_positions(pred), io::flat_triangles(pred), colours, 200,
+                                                      io::heat_color));
   std::vector<double> sorted = d;
   std::sort(sorted.begin(), sorted.end());
   const auto quantile = [&](double q) {

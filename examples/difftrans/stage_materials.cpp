@@ -103,20 +103,12 @@ constexpr int absorption_error_lattice = 48;
 void write_geometry_picture(const std::filesystem::path& path, const io::Mesh& before, const io::Mesh& after,
                             const io::Mesh& truth) {
   const metrics::GeometryOptions options;
-  const auto flat = [](const io::Mesh& m, std::vector<float>& positions, std::vector<std::int32_t>& triangles) {
-    for (const Vec3f& q : m.positions) positions.insert(positions.end(), {q.x, q.y, q.z});
-    for (const Vec3i& t : m.triangles) triangles.insert(triangles.end(), {t.x, t.y, t.z});
-  };
-  std::vector<float> truth_positions;
-  std::vector<std::int32_t> truth_triangles;
-  flat(truth, truth_positions, truth_triangles);
   const int size = 160;
-  const std::vector<scene::Camera> cams = render::cameras_around(truth_positions, size);
+  const std::vector<scene::Camera> cams = render::cameras_around(io::flat_positions(truth), size);
   std::vector<std::vector<io::Image8>> rows;
   for (const io::Mesh* m : {&before, &after, &truth}) {
-    std::vector<float> positions;
-    std::vector<std::int32_t> triangles;
-    flat(*m, positions, triangles);
+    const std::vector<float> positions = io::flat_positions(*m);
+    const std::vector<std::int32_t> triangles = io::flat_triangles(*m);
     std::vector<render::VertexColour> colours(m->positions.size(), render::VertexColour{170, 170, 170});
     if (m != &truth) {
       const std::vector<double> d = metrics::vertex_distances(*m, truth, options);

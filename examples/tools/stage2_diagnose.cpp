@@ -27,6 +27,10 @@
 //              grey absorption): the loss over fixed batches on a grid,
 //              the parabola through its lowest points, and the spread of
 //              dL/dIoR over batches at the material's IoR.
+//   movement   how the refined mesh moved from the stage-1 mesh, read
+//              against the truth (metrics::surface_movement): correction,
+//              common offset or wandering, and where; with --write-map,
+//              pictures of the signed movement and of the error it added.
 //
 // Results are JSON on stdout, progress on stderr.
 #include <CLI/CLI.hpp>
@@ -40,6 +44,7 @@
 #include <filesystem>
 #include <functional>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <memory>
 #include <numeric>
@@ -53,6 +58,12 @@
 #include "../difftrans/views.hpp"
 #include "difftrans/geometry/remesh.hpp"
 #include "difftrans/io/hdr.hpp"
+#include "difftrans/io/material.hpp"
+#include "difftrans/io/mesh_file.hpp"
+#include "difftrans/metrics/absorption.hpp"
+#include "difftrans/io/png.hpp"
+#include "difftrans/metrics/movement.hpp"
+#include "difftrans/render/mesh_picture.hpp"
 #include "difftrans/optim/large_steps.hpp"
 #include "pipeline/environment.hpp"
 #include "pipeline/materials.hpp"
@@ -1324,6 +1335,141 @@ io::Json environment_sources(Setup& setup, const EnvironmentOptions& o) {
           {"regions", regions}};
 }
 
+// ---------------------------------------------------------------- movement
+
+struct MovementOptions {
+  fs::path scene, mesh, reference, gt_mesh;
+  fs::path material;   // the fitted material, against SCENE/gt/material.json under the surface
+  fs::path other;      // another refinement of the same reference (same vertices): does the movement repeat?
+  double depth = 0.03;  // how far under the surface σ is read, in the truth's bounding box's largest side
+  fs::path write_map;  // PREFIX: PREFIX_moved.png, PREFIX_change.png
+  double scale = 0.01;
+};
+
+// Blue (−1) through light grey (0) to red (+1); t in [0, 1] maps −1..1.
+render::VertexColour diverging(float t) {
+  const float x = std::clamp(2.0f * t - 1.0f, -1.0f, 1.0f);
+  const std::array<float, 3> mid{200.0f, 200.0f, 200.0f}, lo{40.0f, 90.0f, 230.0f}, hi{225.0f, 45.0f, 35.0f};
+  const std::array<float, 3>& end = x < 0.0f ? lo : hi;
+  const float a = std::abs(x);
+  render::VertexColour c{};
+  for (std::size_t k = 0; k < 3; ++k) c[k] = std::uint8_t(std::lround(mid[k] + a * (end[k] - mid[k])));
+  return c;
+}
+
+// σ of a material at p (none, homogeneous or a grid)
+Vec3f material_sigma(const io::Material& m, const Vec3f& p) {
+  return m.absorption == io::AbsorptionType::grid          ? metrics::grid_sigma_at(m.grid, p)
+         : m.absorption == io::AbsorptionType::homogeneous ? m.sigma
+                                                           : Vec3f(0.0f);
+}
+
+// Does the surface move where the fitted absorption is wrong? Under each
+// vertex (o.depth of the truth's largest side along its inward normal) the
+// fitted σ against the true σ, as the mean over channels of
+// ln((σ_fit + 0.05) / (σ_true + 0.05)); then the correlation of the
+// vertices' signed movement with it. A fit too dark somewhere (ratio > 0)
+// can lighten the pixels by thinning the object there (movement < 0): a
+// negative correlation is that trade.
+io::Json movement_against_absorption(const MovementOptions& o, const io::Mesh& moved, const io::Mesh& truth,
+                                     const metrics::SurfaceMovement& s) {
+  const io::Material fit = io::read_material(o.material);
+  const io::Material real = io::read_material(o.scene / "gt" / "material.json");
+  Vec3f lo(std::numeric_limits<float>::infinity()), hi(-std::numeric_limits<float>::infinity());
+  for (const Vec3f& p : truth.positions) lo = glm::min(lo, p), hi = glm::max(hi, p);
+  const float depth = float(o.depth) * std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
+  std::vector<Vec3f> normals(moved.positions.size(), Vec3f(0.0f));  // area-weighted
+  for (const Vec3i& t : moved.triangles) {
+    const Vec3f n = glm::cross(moved.positions[std::size_t(t.y)] - moved.positions[std::size_t(t.x)],
+                               moved.positions[std::size_t(t.z)] - moved.positions[std::size_t(t.x)]);
+    for (int k = 0; k < 3; ++k) normals[std::size_t(t[k])] += n;
+  }
+  std::vector<double> ratio(moved.positions.size());
+  double mean_ratio = 0.0;
+  for (std::size_t v = 0; v < ratio.size(); ++v) {
+    const float len = glm::length(normals[v]);
+    const Vec3f inside = moved.positions[v] - (len > 0.0f ? depth / len : 0.0f) * normals[v];
+    const Vec3f f = material_sigma(fit, inside), t = material_sigma(real, inside);
+    double r = 0.0;
+    for (int c = 0; c < 3; ++c) r += std::log((double(f[c]) + 0.05) / (double(t[c]) + 0.05)) / 3.0;
+    ratio[v] = r;
+    mean_ratio += r / double(ratio.size());
+  }
+  double srr = 0.0, srm = 0.0, smm = 0.0;
+  for (std::size_t v = 0; v < ratio.size(); ++v) {
+    const double dr = ratio[v] - mean_ratio, dm = s.moved[v] - s.mean_moved;
+    srr += dr * dr, srm += dr * dm, smm += dm * dm;
+  }
+  return {{"material", o.material.string()},
+          {"depth", depth},
+          {"mean_log_ratio", mean_ratio},
+          {"rms_log_ratio", std::sqrt(srr / double(ratio.size()) + mean_ratio * mean_ratio)},
+          {"correlation_with_moved", srr > 0.0 && smm > 0.0 ? srm / std::sqrt(srr * smm) : 0.0},
+          {"moved_per_unit_log_ratio", srr > 0.0 ? srm / srr : 0.0}};
+}
+
+io::Json movement(const MovementOptions& o) {
+  const fs::path gt = o.gt_mesh.empty() ? o.scene / "gt" / "mesh.obj" : o.gt_mesh;
+  cli::progress("movement: reading " + o.mesh.string() + ", " + o.reference.string() + " and " + gt.string());
+  const io::Mesh moved = io::read_mesh(o.mesh), reference = io::read_mesh(o.reference), truth = io::read_mesh(gt);
+  const metrics::SurfaceMovement s = metrics::surface_movement(moved, reference, truth);
+  io::Json out = {{"mesh", o.mesh.string()}, {"reference", o.reference.string()}, {"truth", gt.string()},
+                  {"vertices", moved.positions.size()},
+                  {"mean_before", s.mean_before}, {"mean_after", s.mean_after}, {"mean_moved", s.mean_moved},
+                  {"rms_before", s.rms_before}, {"rms_after", s.rms_after}, {"rms_moved", s.rms_moved},
+                  {"gain", s.gain}, {"offset", s.offset}, {"residual_rms", s.residual_rms},
+                  {"correlation", s.correlation}, {"improved_fraction", s.improved_fraction},
+                  {"worst_tenth_share", s.worst_tenth_share}};
+  if (!o.other.empty()) {
+    // Two fits from the same reference with other seeds: what they share is
+    // what the data asks for (a correction, or a bias such as the trade with a
+    // wrong material); what differs between them is the batches' noise.
+    const io::Mesh other = io::read_mesh(o.other);
+    if (other.positions.size() != moved.positions.size())
+      throw std::runtime_error(o.other.string() + " has " + std::to_string(other.positions.size()) + " vertices, " +
+                               o.mesh.string() + " " + std::to_string(moved.positions.size()) +
+                               ": --other must be a refinement of the same mesh");
+    const metrics::SurfaceMovement t = metrics::surface_movement(other, reference, truth);
+    const auto residual = [](const metrics::SurfaceMovement& m, std::size_t v) {
+      return m.moved[v] - (m.gain * -m.before[v] + m.offset);
+    };
+    double saa = 0.0, sbb = 0.0, sab = 0.0, raa = 0.0, rbb = 0.0, rab = 0.0, dd = 0.0;
+    for (std::size_t v = 0; v < s.moved.size(); ++v) {
+      const double a = s.moved[v] - s.mean_moved, b = t.moved[v] - t.mean_moved;
+      saa += a * a, sbb += b * b, sab += a * b;
+      const double ra = residual(s, v), rb = residual(t, v);
+      raa += ra * ra, rbb += rb * rb, rab += ra * rb;
+      dd += (s.moved[v] - t.moved[v]) * (s.moved[v] - t.moved[v]);
+    }
+    const auto corr = [](double xy, double xx, double yy) { return xx > 0.0 && yy > 0.0 ? xy / std::sqrt(xx * yy) : 0.0; };
+    const double n = double(s.moved.size());
+    out["repeat"] = {{"other", o.other.string()},
+                     {"other_gain", t.gain}, {"other_offset", t.offset}, {"other_rms_after", t.rms_after},
+                     {"correlation_moved", corr(sab, saa, sbb)},
+                     {"correlation_residual", corr(rab, raa, rbb)},
+                     // half the RMS difference of two independent runs: one run's noise
+                     {"noise_rms", std::sqrt(dd / n) / std::sqrt(2.0)}};
+  }
+  if (!o.material.empty()) out["against_absorption"] = movement_against_absorption(o, moved, truth, s);
+  if (!o.write_map.empty()) {
+    const std::vector<float> positions = io::flat_positions(moved);
+    const std::vector<std::int32_t> triangles = io::flat_triangles(moved);
+    const auto write = [&](const std::string& name, const std::vector<double>& value) {
+      std::vector<render::VertexColour> colours(value.size());
+      for (std::size_t v = 0; v < value.size(); ++v) colours[v] = diverging(float(0.5 + 0.5 * value[v] / o.scale));
+      const fs::path path = o.write_map.string() + "_" + name + ".png";
+      io::write_png8(path, render::vertex_colour_sheet(positions, triangles, colours, 200, diverging));
+      return path.string();
+    };
+    std::vector<double> change(s.after.size());
+    for (std::size_t v = 0; v < change.size(); ++v) change[v] = std::abs(s.after[v]) - std::abs(s.before[v]);
+    out["maps"] = {{"scale", o.scale},
+                   {"moved", write("moved", s.moved)},
+                   {"change", write("change", change)}};
+  }
+  return out;
+}
+
 int main(int argc, char** argv) {
   CLI::App app{"stage2_diagnose: why stage 2's vertex refinement fails, in numbers (JSON on stdout)"};
   app.require_subcommand(1);
@@ -1386,6 +1532,24 @@ int main(int argc, char** argv) {
   r->add_option("--gradient-batches", io_.gradient_batches, "Batches of dL/dIoR at the material's IoR")
       ->capture_default_str()->check(CLI::PositiveNumber);
 
+  MovementOptions mo;
+  CLI::App* mv = app.add_subcommand("movement", "How --mesh moved from --reference (stage 1), against the true mesh: "
+                                                "correction, offset or wandering");
+  mv->add_option("scene", mo.scene, "Scene directory (its gt/mesh.obj is the truth)")->required();
+  mv->add_option("--mesh", mo.mesh, "The refined mesh (e.g. a mesh_stage2.obj)")->required();
+  mv->add_option("--reference", mo.reference, "The mesh it was refined from (e.g. mesh_stage1.obj)")->required();
+  mv->add_option("--gt-mesh", mo.gt_mesh, "True mesh (default SCENE/gt/mesh.obj)");
+  mv->add_option("--other", mo.other, "Another refinement of --reference (another seed): the correlation of the "
+                                      "two movements, what repeats and what is noise");
+  mv->add_option("--material", mo.material, "A fitted material (e.g. material_stage2.json): its σ against "
+                                            "SCENE/gt/material.json under the surface, and the movement against it");
+  mv->add_option("--depth", mo.depth, "With --material: how far under the surface σ is read (fraction of the "
+                                      "truth's largest side)")->capture_default_str()->check(CLI::PositiveNumber);
+  mv->add_option("--write-map", mo.write_map, "Write PREFIX_moved.png (signed movement, red outwards) and "
+                                              "PREFIX_change.png (red: farther from the truth than stage 1)");
+  mv->add_option("--scale", mo.scale, "The maps' full colour, in the truth's unit box")->capture_default_str()
+      ->check(CLI::PositiveNumber);
+
   EnvironmentOptions eo;
   CLI::App* e = app.add_subcommand("environment", "Where the object's light comes from (seen / unseen by the "
                                                    "background, upper / lower hemisphere), true map against --env");
@@ -1405,6 +1569,12 @@ int main(int argc, char** argv) {
     return app.exit(e);
   }
   try {
+    if (mv->parsed()) {  // meshes only: no scene set-up
+      io::Json result;
+      result["movement"] = movement(mo);
+      std::cout << result.dump(2) << std::endl;
+      return 0;
+    }
     Setup setup(common);
     io::Json result;
     result["scene"] = common.scene.string();

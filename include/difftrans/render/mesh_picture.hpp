@@ -4,7 +4,7 @@
 // perspective-correct barycentrics and darkened where the surface turns away
 // from the viewer (by 0.35 + 0.65 |cos| of the angle between the triangle's
 // normal and the view ray), so that the shape reads; and six cameras around
-// a mesh that frame it whole.
+// a mesh that frame it whole; the six pictures and a colour bar as one sheet.
 #pragma once
 
 #include <algorithm>
@@ -12,10 +12,12 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <stdexcept>
 #include <vector>
 
 #include "difftrans/ad/glm.hpp"
+#include "difftrans/io/contact_sheet.hpp"
 #include "difftrans/io/png.hpp"
 #include "difftrans/render/raster.hpp"
 #include "difftrans/scene/camera.hpp"
@@ -90,6 +92,29 @@ inline std::vector<scene::Camera> cameras_around(const std::vector<float>& posit
                                          std::fabs(dir.y) > 0.5f ? Vec3f(0, 0, -dir.y) : Vec3f(0, 1, 0), fov, size,
                                          size));
   return cams;
+}
+
+// The mesh from the six cameras_around it, `size` pixels each, in two rows
+// of four: front, right, back, left, then above, below and a bar of the
+// colour scale (`scale` of 0 at the bottom to 1 at the top), on a dark grey.
+inline io::Image8 vertex_colour_sheet(const std::vector<float>& positions, const std::vector<std::int32_t>& triangles,
+                                      const std::vector<VertexColour>& colours, int size,
+                                      const std::function<VertexColour(float)>& scale) {
+  std::vector<std::vector<io::Image8>> rows(2);
+  for (const scene::Camera& cam : cameras_around(positions, size))
+    rows[rows[0].size() < 4 ? 0 : 1].push_back(vertex_colour_picture(positions, triangles, colours, cam));
+  io::Image8 bar{size, size, 3, std::vector<std::uint8_t>(std::size_t(size) * std::size_t(size) * 3, 40)};
+  for (int y = 8; y < size - 8; ++y)
+    for (int x = size / 2 - 12; x < size / 2 + 12; ++x) {
+      const VertexColour c = scale(float(size - 8 - y) / float(size - 16));
+      std::copy(c.begin(), c.end(), &bar.data[3 * (std::size_t(y) * std::size_t(size) + std::size_t(x))]);
+    }
+  rows[1].push_back(bar);
+  io::SheetLayout layout;
+  layout.tile_width = layout.tile_height = size;
+  layout.rows = 2;
+  layout.cols = 4;
+  return io::compose_sheet(layout, rows);
 }
 
 }  // namespace difftrans::render
