@@ -95,3 +95,37 @@ TEST_CASE("vertex_colour_picture: one colour per vertex, cameras_around needs a 
   CHECK_THROWS_AS(dr::vertex_colour_picture(m.positions, m.triangles, too_few, cam), std::invalid_argument);
   CHECK_THROWS_AS(dr::cameras_around({}, 16), std::invalid_argument);
 }
+
+TEST_CASE("vertex_colour_sheet: six views in two rows of four, then the colour bar from 0 at the bottom to 1 at the top") {
+  const Picture p = sphere();
+  const std::vector<dr::VertexColour> colours(p.positions.size() / 3, dr::VertexColour{0, 200, 0});
+  const auto scale = [](float t) {
+    return dr::VertexColour{std::uint8_t(255.0f * t + 0.5f), 0, std::uint8_t(255.0f * (1.0f - t) + 0.5f)};
+  };
+  const int size = 48, gap = 4;
+  const difftrans::io::Image8 sheet = dr::vertex_colour_sheet(p.positions, p.triangles, colours, size, scale);
+  CHECK(sheet.width == 4 * size + 5 * gap);
+  CHECK(sheet.height == 2 * size + 3 * gap);
+  REQUIRE(sheet.channels == 3);
+  const auto at = [&](int x, int y) {
+    const std::size_t i = 3 * (std::size_t(y) * std::size_t(sheet.width) + std::size_t(x));
+    return dr::VertexColour{sheet.data[i], sheet.data[i + 1], sheet.data[i + 2]};
+  };
+  // the centre of each of the six views shows the sphere (green); the fourth
+  // tile of the second row is empty (the background)
+  for (int k = 0; k < 6; ++k) {
+    const int r = k / 4, c = k % 4;
+    const dr::VertexColour centre = at(gap + c * (size + gap) + size / 2, gap + r * (size + gap) + size / 2);
+    CHECK(centre[1] > 60);
+    CHECK(centre[0] == 0);
+  }
+  const dr::VertexColour empty = at(gap + 3 * (size + gap) + size / 2, gap + (size + gap) + size / 2);
+  CHECK((empty[0] == empty[1] && empty[1] == empty[2]));
+  // the bar in the third tile of the second row: blue (0) near its bottom, red (1) near its top
+  const int bx = gap + 2 * (size + gap) + size / 2, top = gap + (size + gap);
+  const dr::VertexColour low = at(bx, top + size - 9), high = at(bx, top + 8);
+  CHECK(low[2] > 240);
+  CHECK(low[0] < 15);
+  CHECK(high[0] > 240);
+  CHECK(high[2] < 15);
+}
