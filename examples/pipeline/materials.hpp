@@ -359,6 +359,12 @@ struct Stage2Config {
   // horse-green 0.801, 0.854 and 0.725, 0.828; bunny-clear 0.945 and 0.901;
   // the slab with 3 holes 1.117 and 1.153 (seed 1).
   int geometry_depth = 4;
+  // While the vertices move, the Beer–Lambert factor's derivative through the
+  // segments' endpoints (their lengths) moves them too
+  // (TraceSettings::attenuation_path_gradient). false: the vertices answer
+  // to the bending and the Fresnel weights only, so an absorption fitted too
+  // dark or too pale cannot be made up by a thinner or thicker object.
+  bool attenuation_moves_vertices = true;
   // Per-ray clip of the IoR derivative (ray_batch_gradient's clip_ior, as
   // clip_ior / rays); 0: off. Near the critical angle a ray's IoR derivative
   // has a heavy tail: unclipped, a batch's IoR gradient on spot-clear (true
@@ -527,6 +533,10 @@ struct Stage2Config {
             "(0: every depth)",
             0, render::max_trace_depth},
       c.geometry_depth);
+    v(Field{"attenuation_moves_vertices", "--materials-attenuation-moves-vertices",
+            "while the vertices move, the absorption's dependence on the path lengths moves them too "
+            "(=false: the bending and the Fresnel weights only)"},
+      c.attenuation_moves_vertices);
     v(Field{"clip_ior", "--materials-clip-ior", "per-ray clip of the IoR derivative (0: off)", 0, 1e30}, c.clip_ior);
     v(Field{"weights", "", "loss weights"}, c.weights);
     v(Field{"seed", "", "seed of the ray batches"}, c.seed);
@@ -833,6 +843,7 @@ class Stage2 {
     po.trace = config_.trace;
     po.trace.gradient_refractions = st.geometry_moving ? config_.geometry_refractions : 0;
     po.trace.gradient_depth = st.geometry_moving ? config_.geometry_depth : 0;
+    po.trace.attenuation_path_gradient = !st.geometry_moving || config_.attenuation_moves_vertices;
     const float inv_n = 1.0f / float(std::max<std::size_t>(1, target.size()));
     const Stage2Weights& w = config_.weights;
     const int k = std::max(1, config_.pixel_samples);

@@ -637,6 +637,47 @@ TEST_CASE("gradient_depth: the derivative of the tree cut at k, the deeper light
   CHECK(a.ior == b.ior);
 }
 
+TEST_CASE("attenuation_path_gradient off: the absorption's derivative stays, the path lengths' goes") {
+  // At IoR 1 the light runs straight through with no reflection, so the
+  // vertices act on the colour only through the lengths of the segments
+  // inside: without that derivative their gradient is zero; at IoR 1.5 the
+  // bending and the Fresnel weights still move them. σ's gradient and the
+  // radiance are the same either way.
+  const auto rays = rays_towards_centre(Vec3f(0.2f, 0.4f, 3.0f), 0.45f, 16);
+  const Vec3d w(0.7, 1.0, 1.3);
+  TraceSettings full;
+  full.max_depth = 6;
+  TraceSettings fixed_paths = full;
+  fixed_paths.attenuation_path_gradient = false;
+  const auto largest = [](const std::vector<float>& v) {
+    double m = 0.0;
+    for (float x : v) m = std::max(m, double(std::abs(x)));
+    return m;
+  };
+  for (const float ior : {1.0f, 1.5f}) {
+    CAPTURE(ior);
+    HostScene s = make_scene(make_icosphere(0.5f, 2), ior);
+    smooth_environment(s);
+    s.set_homogeneous_absorption(Vec3f(0.5f, 1.0f, 2.0f));
+    const SceneGradient g = loss_gradient(s, rays, w, fixed_paths), g_full = loss_gradient(s, rays, w, full);
+    const double scale = largest(g_full.positions);
+    REQUIRE(scale > 0.0);
+    if (ior == 1.0f) {
+      CHECK(largest(g.positions) <= 1e-6 * scale);
+    } else {
+      CHECK(largest(g.positions) > 0.05 * scale);
+      double differs = 0.0;
+      for (std::size_t i = 0; i < g.positions.size(); ++i)
+        differs = std::max(differs, double(std::abs(g.positions[i] - g_full.positions[i])));
+      CHECK(differs > 1e-3 * scale);
+    }
+    for (int c = 0; c < 3; ++c)
+      CHECK(g.absorption[std::size_t(c)] == doctest::Approx(g_full.absorption[std::size_t(c)]).epsilon(1e-5));
+    for (const auto& r : rays)
+      CHECK(glm::length(trace_value<double>(s, r, fixed_paths) - trace_value<double>(s, r, full)) < 1e-12);
+  }
+}
+
 TEST_CASE("gradient_refractions: derivatives along the main refraction path only") {
   // A parallel plate at normal incidence: the main path (entry, exit) brings
   // (1 − R)² a A, every other branch adds a constant, so with

@@ -69,6 +69,15 @@ struct TraceSettings {
   // carried by a few chaotic rays (docs/stage2-diagnostics.md, "gradcheck at
   // depth").
   int gradient_depth = 0;
+  // false: a segment's Beer–Lambert transmittance carries no derivative
+  // through where the segment runs (its endpoints, hence its length): the
+  // absorption's derivative stays, the vertices' and the IoR's through the
+  // path length go. The colour of an absorbing object fixes σ·length along
+  // each path, so a fit whose σ is wrong can make it up by a thicker or
+  // thinner object; without this derivative the vertices answer to the
+  // bending of the light and the Fresnel weights only (Stage2Config::
+  // attenuation_moves_vertices). The radiance is the same either way.
+  bool attenuation_path_gradient = true;
 };
 
 // What happened along one camera ray (counted on values).
@@ -276,7 +285,10 @@ DT_HOST_DEVICE DT_FORCEINLINE void interact(const SceneView& scene, const Accel&
 
   Vec3<S> weight = b.weight;
   if (cos_geo < T(0) && scene.absorption.kind != scene::AbsorptionKind::none)  // the segment ran inside the object
-    weight = weight * scene::transmittance(reader, scene.absorption, b.origin, p, settings.integration);
+    weight = weight * (settings.attenuation_path_gradient
+                           ? scene::transmittance(reader, scene.absorption, b.origin, p, settings.integration)
+                           : scene::transmittance(reader, scene.absorption, detach(b.origin), detach(p),
+                                                  settings.integration));
 
   if (b.depth + 1 > max_depth) {
     ++local.depth_cut;
