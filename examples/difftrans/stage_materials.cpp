@@ -19,6 +19,7 @@
 #include <cstdint>
 #include <exception>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
 #include <system_error>
@@ -42,30 +43,44 @@
 
 namespace difftrans::cli {
 
-// The vertex phase against the true mesh, level by level: chamfer, F1 and
-// the shading-normal error at its start and whenever the large-steps λ or
-// the environment blur changes (the end of a level), and at its end. Inert
-// without a readable true mesh.
+// The vertex phase level by level, at its start and whenever the
+// large-steps λ or the environment blur changes (the end of a level), and at
+// its end: the colour loss on fixed batches under the sharp map (which needs
+// no truth), and against a readable true mesh chamfer, F1 and the
+// shading-normal error.
 class GeometryLevels {
  public:
-  explicit GeometryLevels(const fs::path& truth) {
+  // truth: the true mesh (none: no chamfer distance); loss: the colour loss
+  // on fixed batches (Stage2::fixed_loss; none: not recorded)
+  GeometryLevels(const fs::path& truth, std::function<pipeline::Stage2::FixedLoss()> loss) : loss_(std::move(loss)) {
+    active_ = bool(loss_);
     if (truth.empty() || !fs::exists(truth)) return;
     try {
       truth_ = io::read_mesh(truth);
-      active_ = true;
+      has_truth_ = active_ = true;
     } catch (const std::exception& e) {
       warn(std::string("materials: no level-by-level comparison with the true mesh: ") + e.what());
     }
   }
   void record(const io::Mesh& m, int iteration, const std::string& after) {
     if (!active_) return;
-    const auto g = metrics::evaluate_geometry(m, truth_);
-    const metrics::NormalError n = metrics::normal_error(m, truth_);
-    io::Json e = {{"iteration", iteration}, {"after", after}, {"chamfer", g.chamfer}, {"f1", g.f1},
-                  {"normal_error_deg", normal_error_json(n)}};
-    progress("materials: vertices at iteration " + std::to_string(iteration) + " (" + after + "): CD " +
-             fixed(g.chamfer, 7) + ", F1 " + fixed(g.f1, 4) + ", normals off by " + fixed(n.mean_deg, 2) +
-             " deg on average");
+    io::Json e = {{"iteration", iteration}, {"after", after}};
+    std::string text;
+    if (loss_) {
+      const pipeline::Stage2::FixedLoss l = loss_();
+      e["fixed_loss"] = {{"mean", l.mean}, {"standard_error", l.standard_error}};
+      text += "colour loss on fixed batches " + fixed(l.mean, 5) + " +- " + fixed(l.standard_error, 5);
+    }
+    if (has_truth_) {
+      const auto g = metrics::evaluate_geometry(m, truth_);
+      const metrics::NormalError n = metrics::normal_error(m, truth_);
+      e["chamfer"] = g.chamfer;
+      e["f1"] = g.f1;
+      e["normal_error_deg"] = normal_error_json(n);
+      text += (text.empty() ? "" : ", ") + std::string("CD ") + fixed(g.chamfer, 7) + ", F1 " + fixed(g.f1, 4) +
+              ", normals off by " + fixed(n.mean_deg, 2) + " deg on average";
+    }
+    progress("materials: vertices at iteration " + std::to_string(iteration) + " (" + after + "): " + text);
     json_.push_back(std::move(e));
   }
   // After each moving step: a new λ or blur closes the level before it.
@@ -85,11 +100,15 @@ class GeometryLevels {
  private:
   std::string label() const { return "lambda " + fixed(lambda_, 2) + ", blur " + fixed(blur_, 2) + " texels"; }
   io::Mesh truth_;
-  bool active_ = false, started_ = false;
+  std::function<pipeline::Stage2::FixedLoss()> loss_;
+  bool active_ = false, has_truth_ = false, started_ = false;
   double lambda_ = 0.0;
   float blur_ = 0.0f;
   io::Json json_ = io::Json::array();
 };
+
+// Batches of Stage2::fixed_loss at each level of the vertex phase.
+constexpr int level_loss_batches = 8;
 
 // Lattice points per axis over the true mesh's box for the absorption error
 // (docs/metrics.md): about 48³ · (the object's share of its box) points.
@@ -254,8 +273,10 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
   // at the start of the vertex phase and at the end of each of its levels
   // (λ, environment blur), logged and kept in materials.geometry_levels, to
   // see which levels help (docs/stage2-diagnostics.md).
-  GeometryLevels levels(cfg.optimize_positions ? scene.gt.mesh : fs::path());
-  if (stage.iteration() <= cfg.freeze_geometry) levels.record(mesh, cfg.freeze_geometry, "stage 1");
+  GeometryLevels levels(cfg.optimize_positions ? scene.gt.mesh : fs::path(),
+                        cfg.optimize_positions ? std::function<pipeline::Stage2::FixedLoss()>(
+                                                     [&stage] { return stage.fixed_loss(level_loss_batches); })
+                                               : nullptr);
   const auto t0 = clock::now();
   {  // the fit; outside it a signal ends the program at once (the checkpoint is complete)
     const StopSignals stop_signals;  // SIGINT / SIGTERM: save the checkpoint, then stop
@@ -269,6 +290,9 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
                  " held-out batches (every " + std::to_string(cfg.selection_holdout) + "th view; " +
                  std::to_string(cfg.selection_iterations) + " iterations per candidate)");
       const bool choosing_depth = stage.iteration() == 0 && cfg.choose_depth && stage.depth_choice().is_null();
+      // the vertices about to move: the stage-1 mesh under the materials fitted so far
+      if (cfg.optimize_positions && stage.iteration() == cfg.freeze_geometry)
+        levels.record(to_io_mesh(s.mesh.positions, s.mesh.triangles), cfg.freeze_geometry, "stage 1");
       const pipeline::Stage2Stats st = stage.step();
       if (st.geometry_moving) levels.step(st, s.mesh);
       if (choosing) {

@@ -1221,6 +1221,57 @@ class Stage2 {
     return {scene_.ior, mean, std::sqrt(var / double(g.size()))};
   }
 
+  // The colour loss of the current scene under the sharp map over `batches`
+  // batches of their own stream (the same rays at every call, whatever the
+  // iteration), the pixels where the photograph or a sample glints (above
+  // glint_factor times the batch's median; 20 when that is off) left out: a
+  // loss one can compare between meshes, e.g. at the end of each level of
+  // the vertex phase, without the truth. The mean per batch and its
+  // standard error over the batches.
+  struct FixedLoss {
+    double mean = 0.0, standard_error = 0.0;
+  };
+  FixedLoss fixed_loss(int batches) {
+    bool differentiate[param_count];
+    std::copy(std::begin(scene_.differentiate), std::end(scene_.differentiate), differentiate);
+    for (bool& d : scene_.differentiate) d = false;
+    const float blur = environment_blur_;
+    set_environment_blur(0.0f);
+    std::vector<double> per_batch;
+    for (int b = 0; b < std::max(1, batches); ++b) {
+      std::mt19937_64 rng(config_.seed * 0xD1B54A32D192ED03ull + 0xF1CEDu + std::uint64_t(b));
+      std::vector<BatchRay> rays;
+      std::vector<Vec3f> target;
+      draw_batch(rng, rays, target);
+      const float glint = glint_level(target, config_.glint_factor > 0.0f ? config_.glint_factor : 20.0f);
+      const float inv_n = 1.0f / float(std::max<std::size_t>(1, target.size()));
+      const int k = std::max(1, config_.pixel_samples);
+      SceneGradient grad(scene_);
+      PassOptions po;
+      po.trace = config_.trace;
+      double colour = 0.0;
+      std::vector<double> per_ray(target.size(), 0.0);
+      group_gradient(
+          rays, k,
+          [&](std::int64_t i, const Vec3f* L, Vec3f* dL) {
+            const RayLoss l = pixel_loss(L, k, target[std::size_t(i)], inv_n, dL, glint);
+            per_ray[std::size_t(i)] = l.colour * inv_n;
+            return l.value;
+          },
+          grad, po, 0.0f, 0.0f);
+      for (double x : per_ray) colour += x;
+      per_batch.push_back(colour);
+    }
+    set_environment_blur(blur);
+    std::copy(std::begin(differentiate), std::end(differentiate), scene_.differentiate);
+    FixedLoss out;
+    for (double x : per_batch) out.mean += x / double(per_batch.size());
+    double var = 0.0;
+    for (double x : per_batch) var += (x - out.mean) * (x - out.mean) / double(std::max<std::size_t>(1, per_batch.size() - 1));
+    out.standard_error = std::sqrt(var / double(per_batch.size()));
+    return out;
+  }
+
   // The gradient of the pixel loss over one batch drawn from `rng`
   // (draw_batch), each ray's IoR derivative clipped (clip_ior), no vertex
   // clip: what the IoR's settling and the absorption candidates' fits step on.

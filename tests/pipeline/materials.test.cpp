@@ -233,6 +233,40 @@ TEST_CASE("stage 2 fits the sky no background pixel saw") {
   }
 }
 
+TEST_CASE("Stage2::fixed_loss: the same rays at every call, lower on the true surface, the scene left as it was") {
+  const dr::HostScene truth = glass_sphere(1.45f, Vec3f(0.0f));
+  const Photos photos = photograph(truth, 8, 32);
+  pipeline::Stage2Config cfg;
+  cfg.absorption_model = pipeline::AbsorptionModel::none;
+  cfg.rays_per_iteration = 1024;
+  cfg.optimize_positions = true;
+  cfg.freeze_geometry = 0;
+  cfg.geometry_blur = 8.0f;  // the vertex phase blurs the map: the loss must not
+  dr::HostScene right = glass_sphere(1.45f, Vec3f(0.0f)), dented = glass_sphere(1.45f, Vec3f(0.0f));
+  for (std::size_t v = 0; v * 3 < dented.mesh.positions.size(); ++v) {
+    float* p = &dented.mesh.positions[3 * v];
+    const float bump = 1.0f + 0.12f * std::max(0.0f, p[1] / 0.4f);
+    for (int c = 0; c < 3; ++c) p[c] *= bump;
+  }
+  dented.positions_changed();
+  pipeline::Stage2 on_right(right, views_of(photos), mask_views_of(photos), cfg);
+  pipeline::Stage2 on_dented(dented, views_of(photos), mask_views_of(photos), cfg);
+  on_dented.step();  // a vertex step: the map is blurred now
+  const std::vector<float> blurred = dented.environment;
+  bool flags[sizeof(dented.differentiate) / sizeof(dented.differentiate[0])];
+  std::copy(std::begin(dented.differentiate), std::end(dented.differentiate), flags);
+  const pipeline::Stage2::FixedLoss a = on_dented.fixed_loss(6), b = on_dented.fixed_loss(6);
+  const pipeline::Stage2::FixedLoss r = on_right.fixed_loss(6);
+  MESSAGE("fixed loss: dented " << a.mean << " +- " << a.standard_error << ", true " << r.mean << " +- "
+                                << r.standard_error);
+  CHECK(a.mean == b.mean);
+  CHECK(a.standard_error == b.standard_error);
+  CHECK(a.standard_error > 0.0);
+  CHECK(a.mean > r.mean + 3.0 * (a.standard_error + r.standard_error));
+  CHECK(dented.environment == blurred);
+  CHECK(std::equal(std::begin(flags), std::end(flags), std::begin(dented.differentiate)));
+}
+
 TEST_CASE("stage 2 with geometry: a dented sphere moves towards the truth") {
   // Colour (+ tone) through the tracer and the silhouette term every 5
   // iterations, vertices through large steps after a frozen start, each ray's
