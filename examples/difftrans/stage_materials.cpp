@@ -19,7 +19,6 @@
 #include <cstdint>
 #include <exception>
 #include <filesystem>
-#include <functional>
 #include <memory>
 #include <string>
 #include <system_error>
@@ -43,44 +42,31 @@
 
 namespace difftrans::cli {
 
-// The vertex phase level by level, at its start and whenever the
-// large-steps λ or the environment blur changes (the end of a level), and at
-// its end: the colour loss on fixed batches under the sharp map (which needs
-// no truth), and against a readable true mesh chamfer, F1 and the
-// shading-normal error.
+// The vertex phase against the true mesh, level by level: chamfer, F1 and
+// the shading-normal error at its start and whenever the large-steps λ or
+// the environment blur changes (the end of a level), and at its end. Inert
+// without a readable true mesh. (The loss at each level, which needs no
+// truth, is Stage2's: vertex_levels().)
 class GeometryLevels {
  public:
-  // truth: the true mesh (none: no chamfer distance); loss: the colour loss
-  // on fixed batches (Stage2::fixed_loss; none: not recorded)
-  GeometryLevels(const fs::path& truth, std::function<pipeline::Stage2::FixedLoss()> loss) : loss_(std::move(loss)) {
-    active_ = bool(loss_);
+  explicit GeometryLevels(const fs::path& truth) {
     if (truth.empty() || !fs::exists(truth)) return;
     try {
       truth_ = io::read_mesh(truth);
-      has_truth_ = active_ = true;
+      active_ = true;
     } catch (const std::exception& e) {
       warn(std::string("materials: no level-by-level comparison with the true mesh: ") + e.what());
     }
   }
   void record(const io::Mesh& m, int iteration, const std::string& after) {
     if (!active_) return;
-    io::Json e = {{"iteration", iteration}, {"after", after}};
-    std::string text;
-    if (loss_) {
-      const pipeline::Stage2::FixedLoss l = loss_();
-      e["fixed_loss"] = {{"mean", l.mean}, {"standard_error", l.standard_error}};
-      text += "colour loss on fixed batches " + fixed(l.mean, 5) + " +- " + fixed(l.standard_error, 5);
-    }
-    if (has_truth_) {
-      const auto g = metrics::evaluate_geometry(m, truth_);
-      const metrics::NormalError n = metrics::normal_error(m, truth_);
-      e["chamfer"] = g.chamfer;
-      e["f1"] = g.f1;
-      e["normal_error_deg"] = normal_error_json(n);
-      text += (text.empty() ? "" : ", ") + std::string("CD ") + fixed(g.chamfer, 7) + ", F1 " + fixed(g.f1, 4) +
-              ", normals off by " + fixed(n.mean_deg, 2) + " deg on average";
-    }
-    progress("materials: vertices at iteration " + std::to_string(iteration) + " (" + after + "): " + text);
+    const auto g = metrics::evaluate_geometry(m, truth_);
+    const metrics::NormalError n = metrics::normal_error(m, truth_);
+    io::Json e = {{"iteration", iteration}, {"after", after}, {"chamfer", g.chamfer}, {"f1", g.f1},
+                  {"normal_error_deg", normal_error_json(n)}};
+    progress("materials: vertices at iteration " + std::to_string(iteration) + " (" + after + "): CD " +
+             fixed(g.chamfer, 7) + ", F1 " + fixed(g.f1, 4) + ", normals off by " + fixed(n.mean_deg, 2) +
+             " deg on average");
     json_.push_back(std::move(e));
   }
   // After each moving step: a new λ or blur closes the level before it.
@@ -100,15 +86,11 @@ class GeometryLevels {
  private:
   std::string label() const { return "lambda " + fixed(lambda_, 2) + ", blur " + fixed(blur_, 2) + " texels"; }
   io::Mesh truth_;
-  std::function<pipeline::Stage2::FixedLoss()> loss_;
-  bool active_ = false, has_truth_ = false, started_ = false;
+  bool active_ = false, started_ = false;
   double lambda_ = 0.0;
   float blur_ = 0.0f;
   io::Json json_ = io::Json::array();
 };
-
-// Batches of Stage2::fixed_loss at each level of the vertex phase.
-constexpr int level_loss_batches = 8;
 
 // Lattice points per axis over the true mesh's box for the absorption error
 // (docs/metrics.md): about 48³ · (the object's share of its box) points.
@@ -273,10 +255,8 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
   // at the start of the vertex phase and at the end of each of its levels
   // (λ, environment blur), logged and kept in materials.geometry_levels, to
   // see which levels help (docs/stage2-diagnostics.md).
-  GeometryLevels levels(cfg.optimize_positions ? scene.gt.mesh : fs::path(),
-                        cfg.optimize_positions ? std::function<pipeline::Stage2::FixedLoss()>(
-                                                     [&stage] { return stage.fixed_loss(level_loss_batches); })
-                                               : nullptr);
+  GeometryLevels levels(cfg.optimize_positions ? scene.gt.mesh : fs::path());
+  std::size_t levels_shown = stage.vertex_levels().size();
   const auto t0 = clock::now();
   {  // the fit; outside it a signal ends the program at once (the checkpoint is complete)
     const StopSignals stop_signals;  // SIGINT / SIGTERM: save the checkpoint, then stop
@@ -294,6 +274,19 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
       if (cfg.optimize_positions && stage.iteration() == cfg.freeze_geometry)
         levels.record(to_io_mesh(s.mesh.positions, s.mesh.triangles), cfg.freeze_geometry, "stage 1");
       const pipeline::Stage2Stats st = stage.step();
+      // Stage2Config::level_loss_batches / keep_best_level: what the loss said
+      for (; levels_shown < stage.vertex_levels().size(); ++levels_shown) {
+        const io::Json& r = stage.vertex_levels()[levels_shown];
+        progress("materials: vertices at iteration " + std::to_string(r.value("iteration", 0)) +
+                 ": colour loss on fixed batches " + fixed(r.value("loss", 0.0), 5) + " +- " +
+                 fixed(r.value("standard_error", 0.0), 5) +
+                 (r.contains("above_best") ? ", against the best level's (iteration " +
+                                                 std::to_string(r.value("best_iteration", 0)) + ") " +
+                                                 fixed(r.value("above_best", 0.0), 5) + " +- " +
+                                                 fixed(r.value("above_best_standard_error", 0.0), 5)
+                                           : std::string()) +
+                 ": " + r.value("decision", std::string()));
+      }
       if (st.geometry_moving) levels.step(st, s.mesh);
       if (choosing) {
         const io::Json& c = stage.absorption_choice();
@@ -337,6 +330,8 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
   }
   levels.finish(s.mesh, stage.iteration());
   if (!levels.json().empty()) j["geometry_levels"] = levels.json();
+  if (!stage.vertex_levels().empty()) j["vertex_levels"] = stage.vertex_levels();
+  if (stage.vertices_stopped_at() >= 0) j["vertices_stopped_at"] = stage.vertices_stopped_at();
   std::vector<double> color_curve, ior_curve;
   for (const pipeline::Stage2Stats& st : stage.history()) {
     color_curve.push_back(st.color);

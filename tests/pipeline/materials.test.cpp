@@ -22,6 +22,7 @@ namespace ds = difftrans::scene;
 namespace losses = difftrans::losses;
 namespace pipeline = difftrans::pipeline;
 namespace dg = difftrans::geometry;
+namespace io = difftrans::io;
 using difftrans::Vec3f;
 using dt_test::mask_views_of;
 using dt_test::photograph;
@@ -265,6 +266,50 @@ TEST_CASE("Stage2::fixed_loss: the same rays at every call, lower on the true su
   CHECK(a.mean > r.mean + 3.0 * (a.standard_error + r.standard_error));
   CHECK(dented.environment == blurred);
   CHECK(std::equal(std::begin(flags), std::end(flags), std::begin(dented.differentiate)));
+}
+
+TEST_CASE("keep_best_level: vertices that make the loss worse go back to the best level and stop") {
+  // The true sphere with a vertex rate far too high: the steps throw the
+  // surface about, the loss on the fixed batches rises, and the vertices
+  // return to where they started; without keep_best_level they stay wrong.
+  const dr::HostScene truth = glass_sphere(1.45f, Vec3f(0.0f));
+  const Photos photos = photograph(truth, 8, 32);
+  pipeline::Stage2Config cfg;
+  cfg.absorption_model = pipeline::AbsorptionModel::none;
+  cfg.rays_per_iteration = 1024;
+  cfg.optimize_positions = true;
+  cfg.optimize_ior = false;
+  cfg.freeze_geometry = 2;
+  cfg.geometry_iterations = 12;
+  cfg.blur_halving = 6;
+  cfg.iterations = 16;
+  cfg.lr_positions = 0.2f;
+  cfg.level_loss_batches = 4;
+  for (const bool keep : {true, false}) {  // (off by default)
+    CAPTURE(keep);
+    pipeline::Stage2Config c = cfg;
+    c.keep_best_level = keep;
+    dr::HostScene s = glass_sphere(1.45f, Vec3f(0.0f));
+    const std::vector<float> start = s.mesh.positions;
+    pipeline::Stage2 st(s, views_of(photos), mask_views_of(photos), c);
+    while (!st.done()) st.step();
+    const io::Json& levels = st.vertex_levels();
+    MESSAGE(levels.dump());
+    REQUIRE(levels.size() >= 2);
+    CHECK(levels[0]["iteration"] == 2);
+    CHECK(levels[0]["decision"] == "start");
+    CHECK(levels[1]["loss"].get<double>() > levels[0]["loss"].get<double>());
+    if (keep) {
+      CHECK(st.vertices_stopped_at() == 8);  // the first level's end
+      CHECK(levels.size() == 2);
+      CHECK(levels[1]["decision"].get<std::string>().rfind("back to iteration 2", 0) == 0);
+      CHECK(s.mesh.positions == start);
+    } else {
+      CHECK(st.vertices_stopped_at() == -1);
+      CHECK(levels.size() == 3);  // the start, the first level's end, the phase's end
+      CHECK(s.mesh.positions != start);
+    }
+  }
 }
 
 TEST_CASE("stage 2 with geometry: a dented sphere moves towards the truth") {
