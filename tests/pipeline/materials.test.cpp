@@ -40,6 +40,27 @@ dr::HostScene glass_sphere(float ior, const Vec3f& sigma) {
   return s;
 }
 
+// Stage 2 on a clear object with the vertices moving, 1024 rays a batch.
+pipeline::Stage2Config clear_vertex_config() {
+  pipeline::Stage2Config cfg;
+  cfg.absorption_model = pipeline::AbsorptionModel::none;
+  cfg.rays_per_iteration = 1024;
+  cfg.optimize_positions = true;
+  return cfg;
+}
+
+// The sphere with its upper half pushed out (radius up to 12 % larger at the top).
+dr::HostScene dented_sphere() {
+  dr::HostScene s = glass_sphere(1.45f, Vec3f(0.0f));
+  for (std::size_t v = 0; v * 3 < s.mesh.positions.size(); ++v) {
+    float* p = &s.mesh.positions[3 * v];
+    const float bump = 1.0f + 0.12f * std::max(0.0f, p[1] / 0.4f);
+    for (int c = 0; c < 3; ++c) p[c] *= bump;
+  }
+  s.positions_changed();
+  return s;
+}
+
 }  // namespace
 
 TEST_CASE("absorption regularizers: values and gradients against finite differences") {
@@ -237,19 +258,10 @@ TEST_CASE("stage 2 fits the sky no background pixel saw") {
 TEST_CASE("Stage2::fixed_loss: the same rays at every call, lower on the true surface, the scene left as it was") {
   const dr::HostScene truth = glass_sphere(1.45f, Vec3f(0.0f));
   const Photos photos = photograph(truth, 8, 32);
-  pipeline::Stage2Config cfg;
-  cfg.absorption_model = pipeline::AbsorptionModel::none;
-  cfg.rays_per_iteration = 1024;
-  cfg.optimize_positions = true;
+  pipeline::Stage2Config cfg = clear_vertex_config();
   cfg.freeze_geometry = 0;
   cfg.geometry_blur = 8.0f;  // the vertex phase blurs the map: the loss must not
-  dr::HostScene right = glass_sphere(1.45f, Vec3f(0.0f)), dented = glass_sphere(1.45f, Vec3f(0.0f));
-  for (std::size_t v = 0; v * 3 < dented.mesh.positions.size(); ++v) {
-    float* p = &dented.mesh.positions[3 * v];
-    const float bump = 1.0f + 0.12f * std::max(0.0f, p[1] / 0.4f);
-    for (int c = 0; c < 3; ++c) p[c] *= bump;
-  }
-  dented.positions_changed();
+  dr::HostScene right = glass_sphere(1.45f, Vec3f(0.0f)), dented = dented_sphere();
   pipeline::Stage2 on_right(right, views_of(photos), mask_views_of(photos), cfg);
   pipeline::Stage2 on_dented(dented, views_of(photos), mask_views_of(photos), cfg);
   on_dented.step();  // a vertex step: the map is blurred now
@@ -274,10 +286,7 @@ TEST_CASE("keep_best_level: vertices that make the loss worse go back to the bes
   // return to where they started; without keep_best_level they stay wrong.
   const dr::HostScene truth = glass_sphere(1.45f, Vec3f(0.0f));
   const Photos photos = photograph(truth, 8, 32);
-  pipeline::Stage2Config cfg;
-  cfg.absorption_model = pipeline::AbsorptionModel::none;
-  cfg.rays_per_iteration = 1024;
-  cfg.optimize_positions = true;
+  pipeline::Stage2Config cfg = clear_vertex_config();
   cfg.optimize_ior = false;
   cfg.freeze_geometry = 2;
   cfg.geometry_iterations = 12;
@@ -320,16 +329,7 @@ TEST_CASE("stage 2 with geometry: a dented sphere moves towards the truth") {
   // vertex derivatives); silhouette term alone 0.0034.
   const dr::HostScene truth = glass_sphere(1.45f, Vec3f(0.0f));
   const Photos photos = photograph(truth, 12, 40);
-  const auto dented = [] {
-    dr::HostScene s = glass_sphere(1.45f, Vec3f(0.0f));
-    for (std::size_t v = 0; v * 3 < s.mesh.positions.size(); ++v) {
-      float* p = &s.mesh.positions[3 * v];
-      const float bump = 1.0f + 0.12f * std::max(0.0f, p[1] / 0.4f);
-      for (int c = 0; c < 3; ++c) p[c] *= bump;
-    }
-    s.positions_changed();
-    return s;
-  };
+  const auto dented = dented_sphere;
   const auto radius_error = [](const dr::HostScene& s) {
     double e = 0.0;
     const std::size_t n = s.mesh.positions.size() / 3;
