@@ -47,6 +47,7 @@
 #include "pipeline/config.hpp"
 #include "pipeline/environment.hpp"
 #include "pipeline/geometry_refine.hpp"
+#include "pipeline/model_choice.hpp"
 
 namespace difftrans::losses {
 inline const std::array<const char*, 3>& enum_names(ColourLoss) {
@@ -1278,9 +1279,6 @@ class Stage2 {
     double mean = 0.0, standard_error = 0.0;
   };
   FixedLoss fixed_loss(int batches, std::vector<double>* per_batch_out = nullptr) {
-    bool differentiate[param_count];
-    std::copy(std::begin(scene_.differentiate), std::end(scene_.differentiate), differentiate);
-    for (bool& d : scene_.differentiate) d = false;
     const float blur = environment_blur_;
     set_environment_blur(0.0f);
     std::vector<double> per_batch;
@@ -1292,24 +1290,14 @@ class Stage2 {
       const float glint = glint_level(target, config_.glint_factor > 0.0f ? config_.glint_factor : 20.0f);
       const float inv_n = 1.0f / float(std::max<std::size_t>(1, target.size()));
       const int k = std::max(1, config_.pixel_samples);
-      SceneGradient grad(scene_);
-      PassOptions po;
-      po.trace = config_.trace;
+      const std::vector<Vec3f> L = trace_batch(scene_, rays, config_.trace);  // the values only: no tape
+      std::vector<Vec3f> adjoint(static_cast<std::size_t>(k));
       double colour = 0.0;
-      std::vector<double> per_ray(target.size(), 0.0);
-      group_gradient(
-          rays, k,
-          [&](std::int64_t i, const Vec3f* L, Vec3f* dL) {
-            const RayLoss l = pixel_loss(L, k, target[std::size_t(i)], inv_n, dL, glint);
-            per_ray[std::size_t(i)] = l.colour * inv_n;
-            return l.value;
-          },
-          grad, po, 0.0f, 0.0f);
-      for (double x : per_ray) colour += x;
+      for (std::size_t p = 0; p < target.size(); ++p)
+        colour += pixel_loss(&L[p * std::size_t(k)], k, target[p], inv_n, adjoint.data(), glint).colour * inv_n;
       per_batch.push_back(colour);
     }
     set_environment_blur(blur);
-    std::copy(std::begin(differentiate), std::end(differentiate), scene_.differentiate);
     FixedLoss out;
     for (double x : per_batch) out.mean += x / double(per_batch.size());
     double var = 0.0;
@@ -1893,22 +1881,19 @@ class Stage2 {
     const FixedLoss l = fixed_loss(config_.level_loss_batches, &batches);
     io::Json r = {{"iteration", it}, {"loss", l.mean}, {"standard_error", l.standard_error}};
     const bool last = it == config_.freeze_geometry + config_.geometry_iterations;
-    if (best_batches_.empty()) {
+    bool improved = best_batches_.empty();
+    if (improved) {
       r["decision"] = "start";
     } else {
-      double mean = 0.0, var = 0.0;
-      const std::size_t n = std::min(batches.size(), best_batches_.size());
-      for (std::size_t b = 0; b < n; ++b) mean += (batches[b] - best_batches_[b]) / double(n);
-      for (std::size_t b = 0; b < n; ++b) {
-        const double d = batches[b] - best_batches_[b] - mean;
-        var += d * d / double(std::max<std::size_t>(1, n - 1));
-      }
-      const double se = std::sqrt(var / double(std::max<std::size_t>(1, n)));
+      // the batch-by-batch difference from the best level (current − best)
+      const PairedComparison c = compare_paired(batches, best_batches_);
+      const double mean = c.gain, se = c.standard_error;
       r["above_best"] = mean;
       r["above_best_standard_error"] = se;
       r["best_iteration"] = best_iteration_;
       const bool worse = mean > 2.0 * se;
-      if (mean < 0.0) {
+      improved = mean < 0.0;
+      if (improved) {
         r["decision"] = "best so far";
       } else if (config_.keep_best_level && worse) {
         scene_.mesh.positions = best_positions_;
@@ -1922,7 +1907,7 @@ class Stage2 {
         r["decision"] = worse ? "worse (kept: keep_best_level off)" : "within the noise of the best";
       }
     }
-    if (best_batches_.empty() || r["decision"] == "best so far") {
+    if (improved) {
       best_batches_ = std::move(batches);
       best_positions_ = scene_.mesh.positions;
       best_iteration_ = it;

@@ -21,8 +21,9 @@
 #include "difftrans/render/pass_options.hpp"
 #include "difftrans/render/tracer.hpp"
 
-// Both of nvcc's passes include these: the host stub it generates names what
-// the device pass declared.
+// Cooperative groups under __CUDACC__ (nvcc's host and device passes), not
+// only __CUDA_ARCH__: the host stub nvcc writes for a kernel refers to the
+// types the device pass declared, so both passes need the declarations.
 #if defined(__CUDACC__)
 #include <cooperative_groups.h>
 #include <cooperative_groups/reduce.h>

@@ -49,10 +49,11 @@ struct SurfaceMovement {
 namespace detail {
 
 // Signed distance of p to the mesh of `tree` (positive on the side its
-// triangles' normals face), with the nearest point's triangle normal.
+// triangles' normals face); `nearest`, when given, gets the nearest point.
 inline double signed_distance(const geometry::ClosestPointTree& tree, const std::vector<float>& positions,
-                              const glm::vec3& p, glm::vec3* normal = nullptr) {
+                              const glm::vec3& p, glm::vec3* nearest = nullptr) {
   const geometry::ClosestPointTree::Result r = tree.closest(p);
+  if (nearest) *nearest = r.point;
   if (r.triangle < 0) throw std::invalid_argument("signed_distance: the mesh has no triangles");
   const auto corner = [&](int k) {
     const std::size_t v = 3 * std::size_t(tree.triangle_vertex(r.triangle, k));
@@ -62,7 +63,6 @@ inline double signed_distance(const geometry::ClosestPointTree& tree, const std:
   glm::vec3 n = glm::cross(b - a, c - a);
   const float len = glm::length(n);
   n = len > 0.0f ? n / len : glm::vec3(0.0f);
-  if (normal) *normal = n;
   const double d = std::sqrt(double(r.distance2));
   return glm::dot(p - r.point, n) < 0.0f ? -d : d;
 }
@@ -88,8 +88,8 @@ inline SurfaceMovement surface_movement(const io::Mesh& moved, const io::Mesh& r
   for (std::size_t v = 0; v < n; ++v) {
     const glm::vec3 p(m.positions[v]);
     s.after[v] = detail::signed_distance(truth_tree, tp, p);
-    s.moved[v] = detail::signed_distance(ref_tree, rp, p);
-    const glm::vec3 on_reference = ref_tree.closest(p).point;
+    glm::vec3 on_reference;
+    s.moved[v] = detail::signed_distance(ref_tree, rp, p, &on_reference);
     s.before[v] = detail::signed_distance(truth_tree, tp, on_reference);
   }
   const double inv = 1.0 / double(n);
