@@ -29,8 +29,10 @@
 //              dL/dIoR over batches at the material's IoR.
 //   movement   how the refined mesh moved from the stage-1 mesh, read
 //              against the truth (metrics::surface_movement): correction,
-//              common offset or wandering, and where; with --write-map,
-//              pictures of the signed movement and of the error it added.
+//              common offset or wandering, and where; with --contours,
+//              split by how many masks' outlines pin each vertex; with
+//              --write-map, pictures of the signed movement and of the
+//              error it added.
 //
 // Results are JSON on stdout, progress on stderr.
 #include <CLI/CLI.hpp>
@@ -64,6 +66,7 @@
 #include "difftrans/io/png.hpp"
 #include "difftrans/metrics/movement.hpp"
 #include "difftrans/render/mesh_picture.hpp"
+#include "difftrans/scene/contour.hpp"
 #include "difftrans/optim/large_steps.hpp"
 #include "pipeline/environment.hpp"
 #include "pipeline/materials.hpp"
@@ -1344,6 +1347,7 @@ struct MovementOptions {
   double depth = 0.03;  // how far under the surface σ is read, in the truth's bounding box's largest side
   fs::path write_map;  // PREFIX: PREFIX_moved.png, PREFIX_change.png
   double scale = 0.01;
+  double contour_band = 0.0;  // > 0: split the vertices by how many training masks' outlines pin them
 };
 
 // Blue (−1) through light grey (0) to red (+1); t in [0, 1] maps −1..1.
@@ -1408,6 +1412,65 @@ io::Json movement_against_absorption(const MovementOptions& o, const io::Mesh& m
           {"moved_per_unit_log_ratio", srr > 0.0 ? srm / srr : 0.0}};
 }
 
+// The movement split by how many training views' mask outlines pass within
+// o.contour_band pixels of each reference vertex (scene::contour_views): is
+// what the colour moved where the masks pinned stage 1 (a trade against the
+// material, or a correction the masks missed?) or where they left it free?
+io::Json movement_by_contours(const MovementOptions& o, const io::Mesh& reference,
+                              const metrics::SurfaceMovement& s, std::vector<int>* counts) {
+  cli::progress("movement: reading the masks of " + o.scene.string());
+  const io::Scene scene = io::load_scene(o.scene);
+  const cli::MaterialsViews training = cli::materials_training_views(scene);
+  std::vector<scene::SilhouetteView> views;
+  for (const pipeline::Stage2View& v : training.views) views.push_back({v.camera, v.mask});
+  *counts = scene::contour_views(io::flat_positions(reference), views, float(o.contour_band));
+  // four groups at the quartiles of the counts (with 50 views around the
+  // object most points lie on several rims), and the histogram
+  std::vector<int> sorted = *counts;
+  std::sort(sorted.begin(), sorted.end());
+  std::vector<std::size_t> histogram(std::size_t(sorted.empty() ? 0 : sorted.back() + 1), 0);
+  for (int c : sorted) ++histogram[std::size_t(c)];
+  struct Group {
+    int lo, hi;  // views, inclusive
+  };
+  std::vector<Group> groups;
+  for (int q = 0; q < 4 && !sorted.empty(); ++q) {
+    const int lo = groups.empty() ? 0 : groups.back().hi + 1;
+    const int hi = q == 3 ? sorted.back() : sorted[(sorted.size() - 1) * std::size_t(q + 1) / 4];
+    if (hi >= lo) groups.push_back({lo, hi});
+  }
+  io::Json rows = io::Json::array();
+  for (const Group& g : groups) {
+    std::size_t n = 0;
+    double b = 0.0, a = 0.0, bb = 0.0, aa = 0.0, m = 0.0, mm = 0.0, change = 0.0;
+    double xx = 0.0, xy = 0.0, sx = 0.0, sy = 0.0;
+    for (std::size_t v = 0; v < counts->size(); ++v) {
+      if ((*counts)[v] < g.lo || (*counts)[v] > g.hi) continue;
+      ++n;
+      b += s.before[v], a += s.after[v];
+      bb += s.before[v] * s.before[v], aa += s.after[v] * s.after[v];
+      m += s.moved[v], mm += s.moved[v] * s.moved[v];
+      change += std::abs(s.after[v]) - std::abs(s.before[v]);
+      const double x = -s.before[v], y = s.moved[v];
+      sx += x, sy += y, xx += x * x, xy += x * y;
+    }
+    const double k = std::max<double>(1.0, double(n));
+    const double var = xx / k - (sx / k) * (sx / k);
+    rows.push_back({{"views", {g.lo, g.hi}},
+                    {"vertices", n},
+                    {"share", double(n) / std::max<double>(1.0, double(counts->size()))},
+                    {"mean_before", b / k},
+                    {"mean_after", a / k},
+                    {"rms_before", std::sqrt(bb / k)},
+                    {"rms_after", std::sqrt(aa / k)},
+                    {"mean_moved", m / k},
+                    {"rms_moved", std::sqrt(mm / k)},
+                    {"mean_change", change / k},  // mean of |after| − |before|: > 0 worse than stage 1
+                    {"gain", var > 0.0 ? (xy / k - (sx / k) * (sy / k)) / var : 0.0}});
+  }
+  return {{"band_pixels", o.contour_band}, {"views", views.size()}, {"histogram", histogram}, {"groups", rows}};
+}
+
 io::Json movement(const MovementOptions& o) {
   const fs::path gt = o.gt_mesh.empty() ? o.scene / "gt" / "mesh.obj" : o.gt_mesh;
   cli::progress("movement: reading " + o.mesh.string() + ", " + o.reference.string() + " and " + gt.string());
@@ -1451,6 +1514,8 @@ io::Json movement(const MovementOptions& o) {
                      {"noise_rms", std::sqrt(dd / n) / std::sqrt(2.0)}};
   }
   if (!o.material.empty()) out["against_absorption"] = movement_against_absorption(o, moved, truth, s);
+  std::vector<int> contours;
+  if (o.contour_band > 0.0) out["by_contour_views"] = movement_by_contours(o, reference, s, &contours);
   if (!o.write_map.empty()) {
     const std::vector<float> positions = io::flat_positions(moved);
     const std::vector<std::int32_t> triangles = io::flat_triangles(moved);
@@ -1466,6 +1531,13 @@ io::Json movement(const MovementOptions& o) {
     out["maps"] = {{"scale", o.scale},
                    {"moved", write("moved", s.moved)},
                    {"change", write("change", change)}};
+    if (!contours.empty()) {  // blue: on the fewest outlines, red: on the most
+      const auto [lo, hi] = std::minmax_element(contours.begin(), contours.end());
+      const double mid = 0.5 * double(*lo + *hi), half = std::max(0.5, 0.5 * double(*hi - *lo));
+      std::vector<double> pinned(contours.size());
+      for (std::size_t v = 0; v < pinned.size(); ++v) pinned[v] = (double(contours[v]) - mid) / half * o.scale;
+      out["maps"]["contours"] = write("contours", pinned);
+    }
   }
   return out;
 }
@@ -1547,6 +1619,10 @@ int main(int argc, char** argv) {
                                       "truth's largest side)")->capture_default_str()->check(CLI::PositiveNumber);
   mv->add_option("--write-map", mo.write_map, "Write PREFIX_moved.png (signed movement, red outwards) and "
                                               "PREFIX_change.png (red: farther from the truth than stage 1)");
+  mv->add_option("--contours", mo.contour_band, "Split the vertices by the number of training masks whose outline "
+                                               "passes within this many pixels of the reference vertex (0: no split; "
+                                               "with --write-map, PREFIX_contours.png)")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
   mv->add_option("--scale", mo.scale, "The maps' full colour, in the truth's unit box")->capture_default_str()
       ->check(CLI::PositiveNumber);
 
