@@ -366,6 +366,13 @@ struct Stage2Config {
   // to the bending and the Fresnel weights only, so an absorption fitted too
   // dark or too pale cannot be made up by a thinner or thicker object.
   bool attenuation_moves_vertices = true;
+  // While the vertices move, each pixel's colour loss weighted by
+  // (b / b̄)^p, b the photograph's pixel brightness (mean of its channels,
+  // at most 4 b̄), b̄ the batch's mean: p > 0 lets the bright pixels, whose
+  // light crossed little absorbing material, move the surface more than the
+  // dark ones, where a wrong absorption and a wrong thickness look alike
+  // (p 2: the weighting of the paper's loss, (ĉ − c)·c). 0: every pixel alike.
+  float vertex_brightness_power = 0.0f;
   // At the start of the vertex phase and at the end of each of its levels
   // (every blur_halving iterations, and its last), the colour loss under the
   // sharp map on level_loss_batches fixed batches (fixed_loss; 0: none).
@@ -552,6 +559,9 @@ struct Stage2Config {
             "while the vertices move, the absorption's dependence on the path lengths moves them too "
             "(=false: the bending and the Fresnel weights only)"},
       c.attenuation_moves_vertices);
+    v(Field{"vertex_brightness_power", "--materials-vertex-brightness",
+            "while the vertices move, each pixel's loss weighted by (its brightness / the batch's mean)^P", 0, 8},
+      c.vertex_brightness_power);
     v(Field{"level_loss_batches", "--materials-level-batches",
             "fixed batches of the colour loss at the start and the end of each level of the vertex phase (0: none)",
             0, 1e6},
@@ -820,6 +830,24 @@ class Stage2 {
     return out;
   }
 
+  // Stage2Config::vertex_brightness_power: each pixel's weight in this
+  // iteration's colour loss (all 1 unless the vertices move and p > 0).
+  std::vector<float> pixel_weights(const std::vector<Vec3f>& target, bool geometry_moving, float glint) const {
+    std::vector<float> w(target.size(), 1.0f);
+    const float p = config_.vertex_brightness_power;
+    if (!geometry_moving || !(p > 0.0f) || target.empty()) return w;
+    const auto brightness = [](const Vec3f& c) { return std::max(0.0f, (c.x + c.y + c.z) / 3.0f); };
+    double sum = 0.0;
+    std::size_t n = 0;
+    for (const Vec3f& c : target)
+      if (brightest(c) <= glint) sum += double(brightness(c)), ++n;
+    const float mean = n > 0 ? float(sum / double(n)) : 0.0f;
+    if (!(mean > 0.0f)) return w;
+    for (std::size_t i = 0; i < target.size(); ++i)
+      w[i] = std::pow(std::min(brightness(target[i]) / mean, 4.0f), p);
+    return w;
+  }
+
   Stage2Stats step() {
     using clock = std::chrono::steady_clock;
     const auto t0 = clock::now();
@@ -870,13 +898,14 @@ class Stage2 {
     const float inv_n = 1.0f / float(std::max<std::size_t>(1, target.size()));
     const Stage2Weights& w = config_.weights;
     const int k = std::max(1, config_.pixel_samples);
+    const std::vector<float> weight = pixel_weights(target, st.geometry_moving, glint);
     std::vector<double> color_per_ray(target.size(), 0.0), tone_per_ray(target.size(), 0.0);
     std::vector<std::uint8_t> skipped(target.size(), 0);
     const auto t1 = clock::now();
     const RayBatchResult rb = group_gradient(
         rays, k,
         [&](std::int64_t i, const Vec3f* L, Vec3f* dL) {
-          const RayLoss l = pixel_loss(L, k, target[std::size_t(i)], inv_n, dL, glint);
+          const RayLoss l = pixel_loss(L, k, target[std::size_t(i)], inv_n * weight[std::size_t(i)], dL, glint);
           skipped[std::size_t(i)] = l.skipped;
           color_per_ray[std::size_t(i)] = l.colour;
           tone_per_ray[std::size_t(i)] = l.tone;
