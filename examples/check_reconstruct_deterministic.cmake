@@ -20,8 +20,14 @@ foreach(run IN ITEMS 1 3)
   endif()
 endforeach()
 # the level checks off: they must not touch the fit's random stream or state
+# (stage 2 alone, again, in a copy of the 1-thread run: the same stage-1 mesh and map)
+file(REMOVE_RECURSE ${WORK_DIR}/nolevels)
+file(COPY ${WORK_DIR}/threads1/ DESTINATION ${WORK_DIR}/nolevels)
+file(REMOVE ${WORK_DIR}/nolevels/mesh_stage2.obj ${WORK_DIR}/nolevels/material_stage2.json)
+set(materials_only ${options})
+list(TRANSFORM materials_only REPLACE "^environment,geometry,materials$" "materials")
 execute_process(COMMAND ${CMAKE_COMMAND} -E env DIFFTRANS_THREADS=1
-                        ${COMMAND} reconstruct ${SCENE} --out ${WORK_DIR}/nolevels ${options} --seed 5
+                        ${COMMAND} reconstruct ${SCENE} --out ${WORK_DIR}/nolevels ${materials_only} --seed 5
                         --materials-level-batches 0
                 RESULT_VARIABLE rc OUTPUT_QUIET ERROR_VARIABLE err)
 if(NOT rc EQUAL 0)

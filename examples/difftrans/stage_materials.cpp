@@ -20,6 +20,7 @@
 #include <exception>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -205,6 +206,17 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
   std::vector<pipeline::Stage1View>& mask_views = training.mask_views;
 
   pipeline::Stage2Config cfg = config;
+  // Stage2Config::fixed_material: the IoR and absorption held, nothing chosen
+  std::optional<io::Material> held;
+  if (!cfg.fixed_material.empty()) {
+    held = io::read_material(cfg.fixed_material);
+    cfg.optimize_ior = cfg.optimize_absorption = false;
+    cfg.absorption_model = held->absorption == io::AbsorptionType::none          ? pipeline::AbsorptionModel::none
+                           : held->absorption == io::AbsorptionType::homogeneous ? pipeline::AbsorptionModel::homogeneous
+                                                                                 : pipeline::AbsorptionModel::grid;
+    const render::HostScene m = render::make_host_scene(mesh, *held);
+    inputs += " fixed material " + fingerprint(std::vector<float>{m.ior}) + fingerprint(m.absorption_raw);
+  }
   {  // the absorption grid spans the mesh's box, a little grown
     Vec3f lo(1e30f), hi(-1e30f);
     for (const Vec3f& p : mesh.positions) lo = glm::min(lo, p), hi = glm::max(hi, p);
@@ -225,6 +237,16 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
                 : pipeline::detail::enum_name(cfg.absorption_model)) +
            (cfg.optimize_positions ? ", vertices after " + std::to_string(cfg.freeze_geometry) : std::string()));
   pipeline::Stage2 stage(s, views, mask_views, cfg);
+  if (held) {  // after Stage2, which starts the material afresh
+    const render::HostScene m = render::make_host_scene(mesh, *held);
+    s.ior = m.ior;
+    s.absorption_kind = m.absorption_kind;
+    s.absorption_raw = m.absorption_raw;
+    s.absorption_res = m.absorption_res;
+    s.absorption_lo = m.absorption_lo;
+    s.absorption_hi = m.absorption_hi;
+    progress("materials: the IoR (" + fixed(s.ior, 4) + ") and the absorption held at " + cfg.fixed_material);
+  }
   // --device: the training rays on the GPU (the rest of the stage on the host)
   const std::unique_ptr<GpuBatchTracer> gpu = gpu_batch_tracer_for(run.device, s, "materials");
   if (gpu) stage.set_batch_gradient(gpu_batch_gradient(*gpu));

@@ -398,6 +398,11 @@ struct Stage2Config {
   std::uint64_t seed = 1;
   // inputs and outputs of the stage
   std::string mesh;               // the mesh to start from; empty: the stage-1 mesh of the run
+  // A material.json held fixed instead of fitted (its IoR and absorption):
+  // with optimize_positions, the vertices alone move, so what they do under
+  // a known material (the truth's, say) can be told from what a wrong one
+  // makes them do. Empty: the material is fitted.
+  std::string fixed_material;
   int test_spp_axis = 2;          // test renders: n x n samples per pixel
 
   // The one list of settings (pipeline/config.hpp): options, record, log.
@@ -574,6 +579,10 @@ struct Stage2Config {
     v(Field{"weights", "", "loss weights"}, c.weights);
     v(Field{"seed", "", "seed of the ray batches"}, c.seed);
     v(Field{"mesh", "--materials-mesh", "mesh to start from (default: DIR/mesh_stage1.obj)"}, c.mesh);
+    v(Field{"fixed_material", "--materials-fixed",
+            "a material.json whose IoR and absorption are held instead of fitted (e.g. SCENE/gt/material.json: "
+            "what the vertices do under the true material)"},
+      c.fixed_material);
     v(Field{"test_spp_axis", "--test-spp-axis", "n x n samples per pixel of the test renders", 1, 64}, c.test_spp_axis);
   }
 };
