@@ -11,17 +11,23 @@ namespace difftrans::cli {
 void add_shape(CLI::App& app) {
   auto name = std::make_shared<std::string>();
   auto out = std::make_shared<std::filesystem::path>();
+  auto subdivide = std::make_shared<int>(8);
   CLI::App* cmd = app.add_subcommand("shape", "Write a procedural mesh of known genus (.obj or .ply)");
-  cmd->footer("Shapes: holes-N, a slab pierced by N square holes in a row (genus N); sphere-L, an icosphere of\n"
-              "radius 1 subdivided L times (L = 0..9; 20 x 4^L triangles).\n"
+  cmd->footer("Shapes: holes-N, a slab pierced by N square holes in a row (genus N), each voxel face cut into\n"
+              "S x S quads (--subdivide); sphere-L, an icosphere of radius 1 subdivided L times (L = 0..9;\n"
+              "20 x 4^L triangles).\n"
               "Example: difftrans shape holes-5 --out holes5.obj && difftrans synth --mesh holes5.obj --ior 1.5 \\\n"
               "           --env constant:1,1,1 --variant quick --out scenes/holes5");
   cmd->add_option("name", *name, "shape name")->required();
   cmd->add_option("--out", *out, "mesh file to write")->required();
-  cmd->callback([name, out] {
+  cmd->add_option("--subdivide", *subdivide,
+                  "holes-N: each voxel face cut into S x S quads, so that the vertex normals a renderer interpolates "
+                  "bend only a band 1/S of a voxel wide along the edges (1: one quad per face, every face bent)")
+      ->capture_default_str()->check(CLI::Range(1, 64));
+  cmd->callback([name, out, subdivide] {
     geometry::ProceduralMesh p;
     try {
-      p = geometry::procedural_shape(*name);
+      p = geometry::procedural_shape(*name, *subdivide);
     } catch (const std::invalid_argument& e) {
       throw std::runtime_error(e.what());
     }

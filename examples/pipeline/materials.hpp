@@ -345,18 +345,6 @@ struct Stage2Config {
   // (CD 1.27e-5 without, 1.46e-5 with 0.3, 1.77e-5 with 1)
   // (docs/stage2-diagnostics.md, "Anchored to stage 1").
   float anchor = 0.0f;
-  // While the vertices move, a pull against a bumpy displacement from the
-  // stage-1 mesh: with D = x − x₁ per vertex and δ_v = D_v − the mean of
-  // its neighbours' D (the uniform Laplacian, rows over the degree), adds
-  // displacement_smoothness · g_rms / h · ∂(½ Σ_v |δ_v|²)/∂x to the vertex
-  // gradient (h and g_rms as for the anchor). A displacement that is the
-  // same over a neighbourhood (a shift, a smooth growth or thinning) costs
-  // nothing; one that differs from vertex to vertex (a bump an edge wide)
-  // is pulled back like the anchor's. The colour constrains the normals far
-  // better than the positions (on the slab with holes its vertex phase
-  // brings the normals from 21° to 17° off while CD doubles), so the bumps
-  // it raises are the term's target. 0: off.
-  float displacement_smoothness = 0.0f;
   // While the vertices move, their gradient flows only through the main
   // refraction path of each camera ray, its first geometry_refractions
   // interactions (TraceSettings::gradient_refractions; 2: entry and exit, as
@@ -576,11 +564,6 @@ struct Stage2Config {
             "while the vertices move, the absorption's dependence on the path lengths moves them too "
             "(=false: the bending and the Fresnel weights only)"},
       c.attenuation_moves_vertices);
-    v(Field{"displacement_smoothness", "--materials-displacement-smoothness",
-            "while the vertices move, a pull against bumps in their displacement from stage 1 (Laplacian of the "
-            "displacement; 1: a bump one edge wide pulled back as hard as a typical vertex is pushed; 0: off)",
-            0, 1e6},
-      c.displacement_smoothness);
     v(Field{"vertex_brightness_power", "--materials-vertex-brightness",
             "while the vertices move, each pixel's loss weighted by (its brightness / the batch's mean)^P", 0, 8},
       c.vertex_brightness_power);
@@ -643,7 +626,7 @@ class Stage2 {
       : scene_(scene), views_(std::move(views)), mask_views_(std::move(mask_views)), config_(config),
         positions_(config.lambda, optim::AdamOptions{config.lr_positions, config.beta1_positions, 0.999f, 1e-8f}) {
     if (views_.empty()) throw std::invalid_argument("Stage2: no training views");
-    if (config_.anchor > 0.0f || config_.displacement_smoothness > 0.0f) {  // their reference
+    if (config_.anchor > 0.0f) {
       stage1_positions_ = scene_.mesh.positions;
       stage1_normals_ = scene_.mesh.vertex_normals;
       const std::vector<std::int32_t>& t = scene_.mesh.triangles;
@@ -975,7 +958,6 @@ class Stage2 {
       st.mask = ms.mask;
     }
     st.loss = rb.loss + w.smoothness * st.smoothness + w.volume * st.volume + w.mask * st.mask;
-    if (st.geometry_moving && config_.displacement_smoothness > 0.0f) smooth_displacement(grad.positions);
     if (st.geometry_moving && config_.anchor > 0.0f) anchor_to_stage1(grad.positions);
 
     // updates
@@ -2017,49 +1999,6 @@ class Stage2 {
       for (int c = 0; c < 3; ++c) d += double(p[3 * v + c] - stage1_positions_[3 * v + c]) * double(n[c]);
       for (int c = 0; c < 3; ++c) g[3 * v + c] += float(k * d * double(n[c]));
     }
-  }
-
-  // Stage2Config::displacement_smoothness: adds k · ∂(½ Σ_v |δ_v|²)/∂x to
-  // the vertex gradient g, δ_v = D_v − mean over v's neighbours of D,
-  // D = x − x₁, k = displacement_smoothness · g_rms / h.
-  void smooth_displacement(std::vector<float>& g) {
-    const std::vector<float>& p = scene_.mesh.positions;
-    const std::size_t nv = p.size() / 3;
-    if (nv == 0 || stage1_positions_.size() != p.size()) return;
-    if (!adjacency_ready_) {
-      adjacency_ = geometry::mesh_adjacency(scene_.mesh.triangles, scene_.mesh.num_vertices());
-      adjacency_ready_ = true;
-    }
-    double g2 = 0.0;
-    for (float x : g) g2 += double(x) * double(x);
-    const double k = double(config_.displacement_smoothness) * std::sqrt(g2 / double(nv)) /
-                     std::max(double(stage1_edge_), 1e-12);
-    const std::vector<std::int32_t>& off = adjacency_.vv_offsets;
-    const std::vector<std::int32_t>& nb = adjacency_.vv_neighbors;
-    std::vector<double> delta(3 * nv, 0.0);
-    for (std::size_t v = 0; v < nv; ++v) {
-      const std::int32_t b = off[v], e = off[v + 1];
-      for (int c = 0; c < 3; ++c) {
-        double mean = 0.0;
-        for (std::int32_t i = b; i < e; ++i) {
-          const std::size_t u = std::size_t(nb[std::size_t(i)]);
-          mean += double(p[3 * u + c]) - double(stage1_positions_[3 * u + c]);
-        }
-        const double own = double(p[3 * v + c]) - double(stage1_positions_[3 * v + c]);
-        delta[3 * v + c] = e > b ? own - mean / double(e - b) : 0.0;
-      }
-    }
-    // ∂/∂D_u: δ_u − Σ over v with u among its neighbours of δ_v / deg v
-    std::vector<double> d(delta);
-    for (std::size_t v = 0; v < nv; ++v) {
-      const std::int32_t b = off[v], e = off[v + 1];
-      if (e <= b) continue;
-      for (std::int32_t i = b; i < e; ++i) {
-        const std::size_t u = std::size_t(nb[std::size_t(i)]);
-        for (int c = 0; c < 3; ++c) d[3 * u + c] -= delta[3 * v + c] / double(e - b);
-      }
-    }
-    for (std::size_t i = 0; i < g.size(); ++i) g[i] += float(k * d[i]);
   }
 
   // The training pass over one batch: batch_gradient_ when set, else the host's.

@@ -6,6 +6,7 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <cstddef>
 #include <map>
 #include <utility>
 
@@ -57,6 +58,23 @@ TEST_CASE("block_with_holes: closed, oriented outward, genus N, volume = voxels"
     for (auto o : v.occupied) voxels += o;
     CHECK(signed_volume(m) == doctest::Approx(voxels));
   }
+  // each voxel face cut into s x s quads: the same solid, s² times the triangles, vertices on the 1/s lattice
+  for (int s : {2, 5}) {
+    CAPTURE(s);
+    const dg::VoxelShape v = dg::block_with_holes(3);
+    const dg::ProceduralMesh coarse = dg::voxel_boundary(v), fine = dg::voxel_boundary(v, s);
+    CHECK(fine.triangles.size() == coarse.triangles.size() * std::size_t(s * s));
+    CHECK(closed_and_oriented(fine));
+    const dg::MeshGenus g = dg::mesh_genus(fine.triangles, std::int32_t(fine.positions.size() / 3));
+    CHECK(g.closed);
+    CHECK(g.components == 1);
+    CHECK(g.genus == 3);
+    CHECK(signed_volume(fine) == doctest::Approx(signed_volume(coarse)));
+    bool on_lattice = true;
+    for (float x : fine.positions) on_lattice = on_lattice && std::abs(x * float(s) - std::round(x * float(s))) < 1e-4f;
+    CHECK(on_lattice);
+  }
+  CHECK_THROWS_AS(dg::voxel_boundary(dg::block_with_holes(1), 0), std::invalid_argument);
   // other proportions
   const dg::ProceduralMesh thick = dg::voxel_boundary(dg::block_with_holes(3, 3, 2, 4));
   CHECK(dg::mesh_genus(thick.triangles, std::int32_t(thick.positions.size() / 3)).genus == 3);
@@ -110,6 +128,9 @@ TEST_CASE("icosphere: closed, outward, genus 0, vertices on the sphere, volume o
 TEST_CASE("procedural_shape by name") {
   const dg::ProceduralMesh m = dg::procedural_shape("holes-4");
   CHECK(dg::mesh_genus(m.triangles, std::int32_t(m.positions.size() / 3)).genus == 4);
+  const dg::ProceduralMesh m3 = dg::procedural_shape("holes-4", 3);
+  CHECK(m3.triangles.size() == 9u * m.triangles.size());
+  CHECK(dg::mesh_genus(m3.triangles, std::int32_t(m3.positions.size() / 3)).genus == 4);
   const dg::ProceduralMesh sphere = dg::procedural_shape("sphere-2");
   CHECK(sphere.triangles.size() == 3u * 320u);
   CHECK_THROWS_WITH_AS(dg::procedural_shape("sphere-x"), doctest::Contains("'sphere-x'"), std::invalid_argument);

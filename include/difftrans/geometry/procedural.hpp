@@ -9,6 +9,7 @@
 #include <map>
 #include <stdexcept>
 #include <string>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -28,22 +29,32 @@ struct ProceduralMesh {
   std::vector<std::int32_t> triangles;  // 3 per face, counter-clockwise seen from outside
 };
 
-// The boundary of the occupied voxels (unit cubes at integer corners): one
-// quad (two triangles) per face between an occupied and an empty cell,
-// vertices shared on the lattice. The result is a closed, consistently
-// oriented surface; it is a 2-manifold when no two occupied voxels touch
-// only along an edge or at a corner (voxel_shape_is_manifold checks that).
-inline ProceduralMesh voxel_boundary(const VoxelShape& v) {
+// The boundary of the occupied voxels (unit cubes at integer corners): each
+// face between an occupied and an empty cell cut into subdivisions ×
+// subdivisions quads (two triangles each), vertices shared on the lattice of
+// spacing 1 / subdivisions. The result is a closed, consistently oriented
+// surface; it is a 2-manifold when no two occupied voxels touch only along
+// an edge or at a corner (voxel_shape_is_manifold checks that).
+//
+// Why subdivide: a tracer that shades with vertex normals (the mean of the
+// faces' normals around each vertex, scene/mesh.hpp) bends every triangle
+// that touches an edge of the box. With one quad per voxel face that is
+// every triangle: a slab two voxels thick is shaded as if its sides were
+// round, and images rendered from it show an object whose optical normals
+// are not its geometry's, which no finer mesh of the same surface can
+// reproduce. Cut into s × s quads, the bent band along each edge is 1 / s of
+// a voxel wide.
+inline ProceduralMesh voxel_boundary(const VoxelShape& v, int subdivisions = 1) {
+  if (subdivisions < 1) throw std::invalid_argument("voxel_boundary: subdivisions >= 1 expected");
   ProceduralMesh m;
-  const std::int64_t lx = v.nx + 1, ly = v.ny + 1, lz = v.nz + 1;
-  std::vector<std::int32_t> id(std::size_t(lx * ly * lz), -1);
-  const auto vertex = [&](int x, int y, int z) {
-    std::int32_t& slot = id[std::size_t((std::int64_t(z) * ly + y) * lx + x)];
-    if (slot < 0) {
-      slot = std::int32_t(m.positions.size() / 3);
-      m.positions.insert(m.positions.end(), {float(x), float(y), float(z)});
-    }
-    return slot;
+  const std::int64_t s = subdivisions;
+  const std::int64_t lx = v.nx * s + 1, ly = v.ny * s + 1;
+  std::unordered_map<std::int64_t, std::int32_t> id;
+  const float unit = 1.0f / float(subdivisions);
+  const auto vertex = [&](const std::int64_t q[3]) {  // q on the fine lattice
+    const auto [it, added] = id.emplace((q[2] * ly + q[1]) * lx + q[0], std::int32_t(m.positions.size() / 3));
+    if (added) m.positions.insert(m.positions.end(), {float(q[0]) * unit, float(q[1]) * unit, float(q[2]) * unit});
+    return it->second;
   };
   for (int z = 0; z < v.nz; ++z)
     for (int y = 0; y < v.ny; ++y)
@@ -55,22 +66,25 @@ inline ProceduralMesh voxel_boundary(const VoxelShape& v) {
             int n[3] = {c[0], c[1], c[2]};
             n[a] += sgn;
             if (v.at(n[0], n[1], n[2])) continue;
-            // the face's corners: (u, v) the two other axes in cyclic order, so eu × ev = e_a
+            // the face's axes (u, w) in cyclic order after a, so e_u × e_w = e_a
             const int u = (a + 1) % 3, w = (a + 2) % 3;
-            int p[4][3];
-            for (int k = 0; k < 4; ++k) {
-              p[k][0] = c[0], p[k][1] = c[1], p[k][2] = c[2];
-              p[k][a] += sgn > 0 ? 1 : 0;
-            }
-            p[1][u] += 1;
-            p[2][u] += 1, p[2][w] += 1;
-            p[3][w] += 1;
-            std::int32_t q[4];
-            for (int k = 0; k < 4; ++k) q[k] = vertex(p[k][0], p[k][1], p[k][2]);
-            if (sgn > 0)
-              m.triangles.insert(m.triangles.end(), {q[0], q[1], q[2], q[0], q[2], q[3]});
-            else
-              m.triangles.insert(m.triangles.end(), {q[0], q[2], q[1], q[0], q[3], q[2]});
+            std::int64_t origin[3] = {c[0] * s, c[1] * s, c[2] * s};
+            origin[a] += sgn > 0 ? s : 0;
+            for (std::int64_t i = 0; i < s; ++i)
+              for (std::int64_t j = 0; j < s; ++j) {
+                std::int64_t p[4][3];
+                for (int k = 0; k < 4; ++k) {
+                  for (int d = 0; d < 3; ++d) p[k][d] = origin[d];
+                  p[k][u] += i + (k == 1 || k == 2 ? 1 : 0);
+                  p[k][w] += j + (k == 2 || k == 3 ? 1 : 0);
+                }
+                std::int32_t q[4];
+                for (int k = 0; k < 4; ++k) q[k] = vertex(p[k]);
+                if (sgn > 0)
+                  m.triangles.insert(m.triangles.end(), {q[0], q[1], q[2], q[0], q[2], q[3]});
+                else
+                  m.triangles.insert(m.triangles.end(), {q[0], q[2], q[1], q[0], q[3], q[2]});
+              }
           }
       }
   return m;
@@ -192,11 +206,12 @@ inline int shape_number(const std::string& name, const std::string& prefix, std:
 }
 }  // namespace detail
 
-// Shapes by name: "holes-N" (block_with_holes(N)), "sphere-L" (icosphere of
-// radius 1, L = 0..9 levels). Throws std::invalid_argument naming the value.
-inline ProceduralMesh procedural_shape(const std::string& name) {
+// Shapes by name: "holes-N" (block_with_holes(N), each voxel face cut into
+// subdivisions² quads), "sphere-L" (icosphere of radius 1, L = 0..9 levels).
+// Throws std::invalid_argument naming the value.
+inline ProceduralMesh procedural_shape(const std::string& name, int subdivisions = 1) {
   const int holes = detail::shape_number(name, "holes-", 3);
-  if (holes >= 0) return voxel_boundary(block_with_holes(holes));
+  if (holes >= 0) return voxel_boundary(block_with_holes(holes), subdivisions);
   const int levels = detail::shape_number(name, "sphere-", 1);
   if (levels >= 0) return icosphere(1.0f, levels);
   throw std::invalid_argument("procedural shape '" + name + "' is not known (known: holes-N, N = 0..999; sphere-L, L = 0..9)");
