@@ -214,8 +214,9 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
     cfg.absorption_model = held->absorption == io::AbsorptionType::none          ? pipeline::AbsorptionModel::none
                            : held->absorption == io::AbsorptionType::homogeneous ? pipeline::AbsorptionModel::homogeneous
                                                                                  : pipeline::AbsorptionModel::grid;
-    const render::HostScene m = render::make_host_scene(mesh, *held);
-    inputs += " fixed material " + fingerprint(std::vector<float>{m.ior}) + fingerprint(m.absorption_raw);
+    const std::vector<float> sigma = held->absorption == io::AbsorptionType::grid ? held->grid.sigma
+                                     : std::vector<float>{held->sigma.x, held->sigma.y, held->sigma.z};
+    inputs += " fixed material " + fingerprint(std::vector<float>{float(held->ior)}) + fingerprint(sigma);
   }
   {  // the absorption grid spans the mesh's box, a little grown
     Vec3f lo(1e30f), hi(-1e30f);
@@ -238,13 +239,7 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
            (cfg.optimize_positions ? ", vertices after " + std::to_string(cfg.freeze_geometry) : std::string()));
   pipeline::Stage2 stage(s, views, mask_views, cfg);
   if (held) {  // after Stage2, which starts the material afresh
-    const render::HostScene m = render::make_host_scene(mesh, *held);
-    s.ior = m.ior;
-    s.absorption_kind = m.absorption_kind;
-    s.absorption_raw = m.absorption_raw;
-    s.absorption_res = m.absorption_res;
-    s.absorption_lo = m.absorption_lo;
-    s.absorption_hi = m.absorption_hi;
+    render::set_material(s, *held);
     progress("materials: the IoR (" + fixed(s.ior, 4) + ") and the absorption held at " + cfg.fixed_material);
   }
   // --device: the training rays on the GPU (the rest of the stage on the host)

@@ -31,7 +31,7 @@ io::Mesh sphere_mesh() {
 }
 }  // namespace
 
-TEST_CASE("make_host_scene carries mesh, IoR and absorption") {
+TEST_CASE("make_host_scene carries mesh, IoR and absorption; set_material replaces them") {
   io::Material m;
   m.ior = 1.6;
   m.absorption = io::AbsorptionType::homogeneous;
@@ -50,6 +50,19 @@ TEST_CASE("make_host_scene carries mesh, IoR and absorption") {
   CHECK(g.absorption_res == m.grid.res);
   CHECK(g.absorption_raw.size() == m.grid.sigma.size());
   CHECK(std::log1p(std::exp(double(g.absorption_raw[0]))) == doctest::Approx(m.grid.sigma[0]).epsilon(1e-5));
+
+  // set_material replaces what a scene had: the grid scene made clear, then homogeneous again
+  dr::HostScene r = dr::make_host_scene(cube_mesh(0.5f), m);  // the grid
+  io::Material clear;
+  clear.ior = 1.3;
+  dr::set_material(r, clear);
+  CHECK(r.ior == doctest::Approx(1.3));
+  CHECK(r.absorption_kind == sc::AbsorptionKind::none);
+  CHECK(r.absorption_raw.empty());
+  m.absorption = io::AbsorptionType::homogeneous;
+  dr::set_material(r, m);
+  CHECK(r.absorption_kind == sc::AbsorptionKind::homogeneous);
+  CHECK(std::log1p(std::exp(double(r.absorption_raw[1]))) == doctest::Approx(2.0).epsilon(1e-5));
 }
 
 TEST_CASE("object_mask: the projected square of a cube seen face on") {

@@ -15,14 +15,14 @@
 
 namespace difftrans::render {
 
-// A host scene owning the mesh (its positions as given: normalize first if
-// the frame asks for it) with the material's IoR and absorption; the
-// environment is a constant white until set_environment is called.
-inline HostScene make_host_scene(const io::Mesh& mesh, const io::Material& material, const std::string& name = "mesh") {
-  HostScene s(io::flat_positions(mesh), io::flat_triangles(mesh), name);
+// The material's IoR and absorption on a scene, replacing what it had.
+inline void set_material(HostScene& s, const io::Material& material) {
   s.ior = float(material.ior);
   switch (material.absorption) {
-    case io::AbsorptionType::none: break;
+    case io::AbsorptionType::none:
+      s.absorption_kind = scene::AbsorptionKind::none;
+      s.absorption_raw.clear();
+      break;
     case io::AbsorptionType::homogeneous: s.set_homogeneous_absorption(material.sigma); break;
     case io::AbsorptionType::grid: {
       const io::AbsorptionGrid& g = material.grid;
@@ -32,6 +32,14 @@ inline HostScene make_host_scene(const io::Mesh& mesh, const io::Material& mater
       break;
     }
   }
+}
+
+// A host scene owning the mesh (its positions as given: normalize first if
+// the frame asks for it) with the material's IoR and absorption; the
+// environment is a constant white until set_environment is called.
+inline HostScene make_host_scene(const io::Mesh& mesh, const io::Material& material, const std::string& name = "mesh") {
+  HostScene s(io::flat_positions(mesh), io::flat_triangles(mesh), name);
+  set_material(s, material);
   return s;
 }
 
