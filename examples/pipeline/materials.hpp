@@ -479,8 +479,8 @@ struct Stage2Config {
     v(Field{"optimize_absorption", "", "fit the absorption grid"}, c.optimize_absorption);
     v(Field{"geometry_optimized", "--materials-geometry",
             "move the vertices too (stage-1 CD -> stage 2, quick variants: spot-clear 2.46e-5 -> 1.27e-5, horse-green "
-            "3.00e-5 -> 2.18e-5, bunny-clear 1.99e-4 -> 1.79e-4; worse on monkey-bands 2.60e-5 -> 3.74e-5 and a "
-            "slab with holes 8.19e-5 -> 9.45e-5)"},
+            "3.00e-5 -> 2.18e-5, a slab with three holes 8.21e-5 -> 3.31e-5, bunny-clear 1.99e-4 -> 1.86e-4; worse on "
+            "monkey-bands 2.60e-5 -> 3.92e-5)"},
       c.optimize_positions);
     v(Field{"absorption_res", "--absorption-res", "absorption grid vertices per axis (the finest grid auto tries)", 2,
             256},
