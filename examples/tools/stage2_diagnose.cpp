@@ -1413,17 +1413,20 @@ io::Json movement_against_absorption(const MovementOptions& o, const io::Mesh& m
 }
 
 // The movement split by how many training views' mask outlines pass within
-// o.contour_band pixels of each reference vertex (scene::contour_views): is
-// what the colour moved where the masks pinned stage 1 (a trade against the
-// material, or a correction the masks missed?) or where they left it free?
-io::Json movement_by_contours(const MovementOptions& o, const io::Mesh& reference,
+// o.contour_band pixels of each vertex's stage-1 position (scene::contour_views;
+// the reference's vertex when the two meshes share their vertices, else the
+// moved mesh's own): is what the colour moved where the masks pinned stage 1
+// (a trade against the material, or a correction the masks missed?) or where
+// they left it free? One count per vertex of the moved mesh.
+io::Json movement_by_contours(const MovementOptions& o, const io::Mesh& moved, const io::Mesh& reference,
                               const metrics::SurfaceMovement& s, std::vector<int>* counts) {
   cli::progress("movement: reading the masks of " + o.scene.string());
   const io::Scene scene = io::load_scene(o.scene);
   const cli::MaterialsViews training = cli::materials_training_views(scene);
   std::vector<scene::SilhouetteView> views;
   for (const pipeline::Stage2View& v : training.views) views.push_back({v.camera, v.mask});
-  *counts = scene::contour_views(io::flat_positions(reference), views, float(o.contour_band));
+  const io::Mesh& at = reference.positions.size() == moved.positions.size() ? reference : moved;
+  *counts = scene::contour_views(io::flat_positions(at), views, float(o.contour_band));
   // four groups at the quartiles of the counts (with 50 views around the
   // object most points lie on several rims), and the histogram
   std::vector<int> sorted = *counts;
@@ -1515,7 +1518,7 @@ io::Json movement(const MovementOptions& o) {
   }
   if (!o.material.empty()) out["against_absorption"] = movement_against_absorption(o, moved, truth, s);
   std::vector<int> contours;
-  if (o.contour_band > 0.0) out["by_contour_views"] = movement_by_contours(o, reference, s, &contours);
+  if (o.contour_band > 0.0) out["by_contour_views"] = movement_by_contours(o, moved, reference, s, &contours);
   if (!o.write_map.empty()) {
     const std::vector<float> positions = io::flat_positions(moved);
     const std::vector<std::int32_t> triangles = io::flat_triangles(moved);
