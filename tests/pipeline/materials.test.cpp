@@ -418,6 +418,23 @@ TEST_CASE("stage 2 with geometry: a dented sphere moves towards the truth") {
     CHECK(moved[0] > 0.005);  // the dent (0.012 on average) is mostly removed ...
     CHECK(moved[1] < 0.3 * moved[0]);  // ... unless the anchor holds the surface
   }
+  SUBCASE("brightness weights (Stage2Config::vertex_brightness_power) act while the vertices move, and only then") {
+    std::vector<float> frozen[2], moved[2];
+    for (int k = 0; k < 2; ++k) {
+      dr::HostScene s = dented();
+      pipeline::Stage2Config c = cfg;
+      c.optimize_ior = true;  // the IoR moves before the freeze ends: the weights must not touch it
+      c.iterations = cfg.freeze_geometry + 10;
+      c.vertex_brightness_power = k == 0 ? 0.0f : 2.0f;
+      pipeline::Stage2 st(s, views_of(photos), mask_views_of(photos), c);
+      for (int i = 0; i < c.freeze_geometry; ++i) st.step();
+      frozen[k] = {s.ior};
+      while (!st.done()) st.step();
+      moved[k] = s.mesh.positions;
+    }
+    CHECK(frozen[0] == frozen[1]);  // the same IoR after the materials-only iterations, bit for bit
+    CHECK(moved[0] != moved[1]);    // the weighted vertex steps go elsewhere
+  }
   SUBCASE("the silhouette term alone (the plumbing: freeze, large steps, BVH refit)") {
     dr::HostScene s = dented();
     pipeline::Stage2Config c = cfg;
