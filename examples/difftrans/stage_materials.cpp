@@ -137,6 +137,25 @@ io::Json mesh_quality_json(const metrics::MeshQuality& q) {
 
 namespace {
 
+// The progress line's absorption figure from reconstruct.json's
+// absorption_error (docs/metrics.md): the mean relative error over the
+// channels the truth absorbs in, and the mean absolute σ fitted in those it
+// leaves clear (a clear object fitted an absorption has no relative error to
+// show, yet is wrong).
+std::string absorption_error_text(const io::Json& e) {
+  std::string text, clear;
+  bool absorbing = false;
+  for (std::size_t c = 0; c < 3; ++c) {
+    const bool channel_clear = e["mean_true"][c].get<double>() <= 1e-6;
+    absorbing = absorbing || !channel_clear;
+    clear += (c ? " / " : "") + (channel_clear ? fixed(e["mean_absolute"][c].get<double>(), 3) : std::string("-"));
+  }
+  if (absorbing) text = ", absorption error " + fixed(100.0 * e["mean_relative"].get<double>(), 1) + " %";
+  if (clear.find_first_of("0123456789") != std::string::npos)
+    text += ", absorption " + clear + " per unit length where the truth is clear";
+  return text;
+}
+
 // render::ray_group_gradient's meaning, traced by `gpu` (Stage2::set_batch_gradient).
 // A group whose gradient the GPU could not hold on its longest tape counts
 // as overflowed, as on the host.
@@ -521,9 +540,7 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
   }
   progress("materials: IoR " + fixed(s.ior, 4) +
            (j.contains("ior_error") ? " (error " + fixed(j["ior_error"].get<double>(), 4) + ")" : std::string()) +
-           (j.contains("absorption_error")
-                ? ", absorption error " + fixed(100.0 * j["absorption_error"]["mean_relative"].get<double>(), 1) + " %"
-                : std::string()) +
+           (j.contains("absorption_error") ? absorption_error_text(j["absorption_error"]) : std::string()) +
            (cfg.optimize_positions && j.contains("normal_error_deg")
                 ? ", CD " + fixed(j["chamfer"].get<double>(), 6) + ", normals off by " +
                       fixed(j["normal_error_deg"]["mean"].get<double>(), 2) + " deg on average"

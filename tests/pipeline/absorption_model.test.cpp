@@ -127,6 +127,12 @@ TEST_CASE("stage 2 chooses the absorption model from the photographs") {
   REQUIRE(candidates.size() >= 2);
   CHECK(candidates[0]["model"] == "homogeneous");
   CHECK(candidates[1]["model"] == "none");
+  // none is fitted its own IoR from the same start, not scored at the IoR
+  // the homogeneous candidate moved to with its absorption (which lost a
+  // clear object to an absorption that suited a shifted IoR)
+  const double start = 1.5, ior_none = candidates[1]["ior"].get<double>();
+  CHECK(ior_none != candidates[0]["ior"].get<double>());
+  if (expected == "none") CHECK(std::abs(ior_none - 1.45) < 0.5 * std::abs(start - 1.45));
   if (expected == "grid") {
     REQUIRE(choice.contains("res"));
     CHECK(s.absorption_res.x == choice["res"].get<int>());
