@@ -435,6 +435,27 @@ TEST_CASE("stage 2 with geometry: a dented sphere moves towards the truth") {
     CHECK(frozen[0] == frozen[1]);  // the same IoR after the materials-only iterations, bit for bit
     CHECK(moved[0] != moved[1]);    // the weighted vertex steps go elsewhere
   }
+  SUBCASE("the IoR holds still while the vertices move, unless it moves with them (Stage2Config::ior_with_vertices)") {
+    float change[2] = {0.0f, 0.0f};
+    std::vector<float> moved[2];
+    for (int k = 0; k < 2; ++k) {
+      dr::HostScene s = dented();
+      pipeline::Stage2Config c = cfg;
+      c.optimize_ior = true;
+      c.iterations = cfg.freeze_geometry + 10;
+      c.ior_with_vertices = k == 1;
+      pipeline::Stage2 st(s, views_of(photos), mask_views_of(photos), c);
+      for (int i = 0; i < c.freeze_geometry; ++i) st.step();
+      const float at_freeze = s.ior;
+      while (!st.done()) REQUIRE(st.step().geometry_moving);
+      change[k] = std::abs(s.ior - at_freeze);
+      moved[k] = s.mesh.positions;
+    }
+    MESSAGE("IoR change over the vertex iterations: held " << change[0] << ", with the vertices " << change[1]);
+    CHECK(change[0] == 0.0f);
+    CHECK(change[1] > 0.0f);
+    CHECK(moved[0] != moved[1]);  // the vertices see the IoR move
+  }
   SUBCASE("the silhouette term alone (the plumbing: freeze, large steps, BVH refit)") {
     dr::HostScene s = dented();
     pipeline::Stage2Config c = cfg;
