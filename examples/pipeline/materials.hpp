@@ -290,6 +290,8 @@ struct Stage2Config {
   int depth_batches = 4;
   std::vector<float> prune_candidates{0.1f, 0.03f, 0.01f, 0.003f};
   losses::ColourLoss colour_loss = losses::ColourLoss::l2;  // losses/photometric.hpp
+  // The colour loss while the vertices move (and of their level checks).
+  losses::ColourLoss geometry_colour_loss = losses::ColourLoss::l2;
   // Pixels whose colour loss exceeds this are skipped (NaN always is). Off:
   // skipping at 1e3 removed the samples that met a sun glint the photograph
   // did not show (a residual in the thousands) but kept most of the opposite
@@ -542,6 +544,9 @@ struct Stage2Config {
     v(Field{"prune_candidates", "", "pruning thresholds the depth choice times"}, c.prune_candidates);
     v(Field{"colour_loss", "--materials-colour-loss", "colour loss per ray: l2, relative_l2 or log_l2 (L2 of log(1 + x))"},
       c.colour_loss);
+    v(Field{"geometry_colour_loss", "--materials-geometry-colour-loss",
+            "colour loss per ray while the vertices move: l2, relative_l2 or log_l2"},
+      c.geometry_colour_loss);
     v(Field{"max_ray_loss", "--materials-max-ray-loss", "pixels with a larger colour loss are skipped (outliers)", 0, 3.4e38},
       c.max_ray_loss);
     v(Field{"glint_factor", "--materials-glint", "pixels brighter than this times the batch's median photographed "
@@ -791,7 +796,7 @@ class Stage2 {
   };
   RayLoss ray_loss(const Vec3f& radiance, const Vec3f& target, float inv_n) const {
     const Stage2Weights& w = config_.weights;
-    const losses::RayColourLoss l = losses::ray_colour_loss(radiance, target, config_.colour_loss, w.tone != 0.0f);
+    const losses::RayColourLoss l = losses::ray_colour_loss(radiance, target, active_colour_loss(), w.tone != 0.0f);
     RayLoss out;
     if (!(l.colour <= double(config_.max_ray_loss))) {  // NaN or an outlier: no gradient
       out.skipped = true;
@@ -802,6 +807,10 @@ class Stage2 {
     out.adjoint = inv_n * (w.color * l.dcolour + w.tone * l.dtone);
     out.value = w.color * inv_n * l.colour + w.tone * inv_n * l.tone;
     return out;
+  }
+
+  losses::ColourLoss active_colour_loss() const {
+    return geometry_loss_active_ ? config_.geometry_colour_loss : config_.colour_loss;
   }
 
   // One pixel's loss from its pixel_samples radiances L[0 .. k): the loss of
@@ -825,7 +834,7 @@ class Stage2 {
     }
     // pairs: colour = mean over pairs of Σ_ch (f(ĉ₁) − f(c)) (f(ĉ₂) − f(c))
     const Stage2Weights& w = config_.weights;
-    const losses::RayColourLoss tone = losses::ray_colour_loss(mean, target, config_.colour_loss, w.tone != 0.0f);
+    const losses::RayColourLoss tone = losses::ray_colour_loss(mean, target, active_colour_loss(), w.tone != 0.0f);
     RayLoss out;
     out.tone = tone.tone;
     const int pairs = k / 2;
@@ -834,8 +843,8 @@ class Stage2 {
       const Vec3f& a = L[2 * pr];
       const Vec3f& b = L[2 * pr + 1];
       for (int ch = 0; ch < 3; ++ch) {
-        const losses::ColourResidual ra = losses::colour_residual(a[ch], target[ch], config_.colour_loss);
-        const losses::ColourResidual rb = losses::colour_residual(b[ch], target[ch], config_.colour_loss);
+        const losses::ColourResidual ra = losses::colour_residual(a[ch], target[ch], active_colour_loss());
+        const losses::ColourResidual rb = losses::colour_residual(b[ch], target[ch], active_colour_loss());
         out.colour += double(ra.value) * double(rb.value) / pairs;
         adjoint[2 * pr][ch] += w.color * inv_n * rb.value * ra.derivative / float(pairs);
         adjoint[2 * pr + 1][ch] += w.color * inv_n * ra.value * rb.derivative / float(pairs);
@@ -918,6 +927,7 @@ class Stage2 {
     std::vector<double> color_per_ray(target.size(), 0.0), tone_per_ray(target.size(), 0.0);
     std::vector<std::uint8_t> skipped(target.size(), 0);
     const auto t1 = clock::now();
+    geometry_loss_active_ = st.geometry_moving;
     const RayBatchResult rb = group_gradient(
         rays, k,
         [&](std::int64_t i, const Vec3f* L, Vec3f* dL) {
@@ -928,6 +938,7 @@ class Stage2 {
           return l.value;
         },
         grad, po, st.geometry_moving ? config_.clip_geometry * inv_n : 0.0f, config_.clip_ior * inv_n);
+    geometry_loss_active_ = false;
     st.clipped_rays = rb.clipped_rays;
     st.clipped_ior_rays = rb.clipped_ior_rays;
     st.trace_seconds = std::chrono::duration<double>(clock::now() - t1).count();
@@ -1930,7 +1941,9 @@ class Stage2 {
   // batch; Stage2Config::keep_best_level decides whether they go back.
   void check_level(int it) {
     std::vector<double> batches;
+    geometry_loss_active_ = true;
     const FixedLoss l = fixed_loss(config_.level_loss_batches, &batches);
+    geometry_loss_active_ = false;
     io::Json r = {{"iteration", it}, {"loss", l.mean}, {"standard_error", l.standard_error}};
     const bool last = it == config_.freeze_geometry + config_.geometry_iterations;
     bool improved = best_batches_.empty();
@@ -2053,6 +2066,7 @@ class Stage2 {
   Vec3f searched_sky_{std::numeric_limits<float>::quiet_NaN()};
   SigmaSearchEvidence search_evidence_;
   const std::vector<int>* batch_views_ = nullptr;  // the views draw_batch draws from (null: all)
+  bool geometry_loss_active_ = false;              // pixel_loss uses geometry_colour_loss (the vertices move)
   io::Json choice_;                                // choose_absorption's record
   io::Json depth_choice_;                          // choose_depth's record
   int iteration_ = 0;

@@ -456,6 +456,24 @@ TEST_CASE("stage 2 with geometry: a dented sphere moves towards the truth") {
     CHECK(change[1] > 0.0f);
     CHECK(moved[0] != moved[1]);  // the vertices see the IoR move
   }
+  SUBCASE("the vertices' own colour loss (Stage2Config::geometry_colour_loss) acts while they move, and only then") {
+    float frozen[2] = {0.0f, 0.0f};
+    std::vector<float> moved[2];
+    for (int k = 0; k < 2; ++k) {
+      dr::HostScene s = dented();
+      pipeline::Stage2Config c = cfg;
+      c.optimize_ior = true;  // the IoR moves before the freeze ends: the vertices' loss must not touch it
+      c.iterations = cfg.freeze_geometry + 10;
+      c.geometry_colour_loss = k == 0 ? losses::ColourLoss::l2 : losses::ColourLoss::log_l2;
+      pipeline::Stage2 st(s, views_of(photos), mask_views_of(photos), c);
+      for (int i = 0; i < c.freeze_geometry; ++i) st.step();
+      frozen[k] = s.ior;
+      while (!st.done()) st.step();
+      moved[k] = s.mesh.positions;
+    }
+    CHECK(frozen[0] == frozen[1]);  // the materials-only iterations bit for bit as they were
+    CHECK(moved[0] != moved[1]);    // the vertices follow another loss
+  }
   SUBCASE("the silhouette term alone (the plumbing: freeze, large steps, BVH refit)") {
     dr::HostScene s = dented();
     pipeline::Stage2Config c = cfg;
