@@ -144,15 +144,15 @@ namespace {
 // show, yet is wrong).
 std::string absorption_error_text(const io::Json& e) {
   std::string text, clear;
-  bool absorbing = false;
+  bool absorbing = false, any_clear = false;
   for (std::size_t c = 0; c < 3; ++c) {
     const bool channel_clear = e["mean_true"][c].get<double>() <= 1e-6;
     absorbing = absorbing || !channel_clear;
+    any_clear = any_clear || channel_clear;
     clear += (c ? " / " : "") + (channel_clear ? fixed(e["mean_absolute"][c].get<double>(), 3) : std::string("-"));
   }
   if (absorbing) text = ", absorption error " + fixed(100.0 * e["mean_relative"].get<double>(), 1) + " %";
-  if (clear.find_first_of("0123456789") != std::string::npos)
-    text += ", absorption " + clear + " per unit length where the truth is clear";
+  if (any_clear) text += ", absorption " + clear + " per unit length where the truth is clear";
   return text;
 }
 

@@ -292,6 +292,18 @@ struct Stage2Config {
   losses::ColourLoss colour_loss = losses::ColourLoss::l2;  // losses/photometric.hpp
   // The colour loss while the vertices move (and of their level checks).
   losses::ColourLoss geometry_colour_loss = losses::ColourLoss::l2;
+  // While the vertices move (and in their level checks), each drawn pixel
+  // comes with a neighbour (neighbour_distance pixels right, left, up or down) and the
+  // vertices see the difference of the two pixels' residuals,
+  // (f(ĉ_p) − f(c_p)) − (f(ĉ_q) − f(c_q)) with f geometry_colour_loss's
+  // (log(1 + x) for log_l2), no tone term: a residual the same at both
+  // pixels — an absorption or a sky the materials have not yet fitted,
+  // multiplicative, so constant across neighbours in log — moves no vertex,
+  // while one the refraction shifts across the image does. The batch keeps
+  // its ray count (half as many drawn pixels, each with its neighbour).
+  bool geometry_neighbours = false;
+  // How far the neighbour lies, in pixels (along a row or a column).
+  int neighbour_distance = 1;
   // Pixels whose colour loss exceeds this are skipped (NaN always is). Off:
   // skipping at 1e3 removed the samples that met a sun glint the photograph
   // did not show (a residual in the thousands) but kept most of the opposite
@@ -547,6 +559,13 @@ struct Stage2Config {
     v(Field{"geometry_colour_loss", "--materials-geometry-colour-loss",
             "colour loss per ray while the vertices move: l2, relative_l2 or log_l2"},
       c.geometry_colour_loss);
+    v(Field{"geometry_neighbours", "--materials-geometry-neighbours",
+            "the vertices see the difference between neighbouring pixels' residuals (a residual smooth across the "
+            "image, as a wrong absorption leaves under log_l2, moves no vertex)"},
+      c.geometry_neighbours);
+    v(Field{"neighbour_distance", "--materials-neighbour-distance",
+            "pixels between a pixel and its neighbour for --materials-geometry-neighbours", 1, 64},
+      c.neighbour_distance);
     v(Field{"max_ray_loss", "--materials-max-ray-loss", "pixels with a larger colour loss are skipped (outliers)", 0, 3.4e38},
       c.max_ray_loss);
     v(Field{"glint_factor", "--materials-glint", "pixels brighter than this times the batch's median photographed "
@@ -732,8 +751,12 @@ class Stage2 {
   // views_per_iteration views without repetition, then rays_per_iteration /
   // (views · pixel_samples) random object pixels of each, pixel_samples rays
   // inside each pixel (stratified n × n when pixel_samples = n², else
-  // uniform), consecutive in `rays`; one target per pixel.
-  void draw_batch(std::mt19937_64& rng, std::vector<BatchRay>& rays, std::vector<Vec3f>& target) const {
+  // uniform), consecutive in `rays`; one target per pixel. With
+  // `neighbours`, half as many pixels are drawn and each is followed (rays
+  // and target) by one of its four neighbours (neighbour_distance pixels
+  // away) inside the image, at random.
+  void draw_batch(std::mt19937_64& rng, std::vector<BatchRay>& rays, std::vector<Vec3f>& target,
+                  bool neighbours = false) const {
     std::vector<int> order(views_.size());
     std::iota(order.begin(), order.end(), 0);
     if (batch_views_) order = *batch_views_;  // while the absorption model is chosen: a part of the views
@@ -744,16 +767,17 @@ class Stage2 {
     const int k = std::max(1, config_.pixel_samples);
     int n = int(std::lround(std::sqrt(double(k))));
     if (n * n != k) n = 0;  // not a square: uniform jitter
-    const int per_view = std::max(1, config_.rays_per_iteration / (k * int(order.size())));
+    const int group = neighbours ? 2 : 1;
+    const int per_view = std::max(1, config_.rays_per_iteration / (k * group * int(order.size())));
     std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+    std::uniform_int_distribution<int> side(0, 3);
     for (int v : order) {
       const auto& pix = pixels_[std::size_t(v)];
       if (pix.empty()) continue;
       const Stage2View& view = views_[std::size_t(v)];
+      const int width = view.camera.width, height = view.camera.height;
       std::uniform_int_distribution<std::size_t> pick(0, pix.size() - 1);
-      for (int r = 0; r < per_view; ++r) {
-        const std::int32_t p = pix[pick(rng)];
-        const int x = p % view.camera.width, y = p / view.camera.width;
+      const auto add_pixel = [&](int x, int y) {
         for (int q = 0; q < k; ++q) {
           const float jx = unit(rng), jy = unit(rng);
           const scene::Ray ray = n > 1 ? view.camera.generate_ray(x, y, (float(q % n) + jx) / float(n),
@@ -761,8 +785,20 @@ class Stage2 {
                                        : view.camera.generate_ray(x, y, jx, jy);
           rays.push_back({ray.origin, ray.direction});
         }
-        const float* c = view.image + std::size_t(p) * 3;
+        const float* c = view.image + (std::size_t(y) * std::size_t(width) + std::size_t(x)) * 3;
         target.push_back(Vec3f(c[0], c[1], c[2]));
+      };
+      for (int r = 0; r < per_view; ++r) {
+        const std::int32_t p = pix[pick(rng)];
+        const int x = p % width, y = p / width;
+        add_pixel(x, y);
+        if (!neighbours) continue;
+        // one of the four neighbours; across the image's edge, the opposite one
+        const int s = side(rng), d = std::max(1, config_.neighbour_distance);
+        int dx = s == 0 ? d : s == 1 ? -d : 0, dy = s == 2 ? d : s == 3 ? -d : 0;
+        if (x + dx < 0 || x + dx >= width) dx = -dx;
+        if (y + dy < 0 || y + dy >= height) dy = -dy;
+        add_pixel(std::clamp(x + dx, 0, width - 1), std::clamp(y + dy, 0, height - 1));
       }
     }
   }
@@ -794,9 +830,9 @@ class Stage2 {
     Vec3f adjoint{0.0f};
     bool skipped = false;
   };
-  RayLoss ray_loss(const Vec3f& radiance, const Vec3f& target, float inv_n) const {
+  RayLoss ray_loss(const Vec3f& radiance, const Vec3f& target, float inv_n, losses::ColourLoss kind) const {
     const Stage2Weights& w = config_.weights;
-    const losses::RayColourLoss l = losses::ray_colour_loss(radiance, target, active_colour_loss(), w.tone != 0.0f);
+    const losses::RayColourLoss l = losses::ray_colour_loss(radiance, target, kind, w.tone != 0.0f);
     RayLoss out;
     if (!(l.colour <= double(config_.max_ray_loss))) {  // NaN or an outlier: no gradient
       out.skipped = true;
@@ -809,15 +845,17 @@ class Stage2 {
     return out;
   }
 
-  losses::ColourLoss active_colour_loss() const {
-    return geometry_loss_active_ ? config_.geometry_colour_loss : config_.colour_loss;
+  // The colour loss of the vertices' steps (geometry_colour_loss) or of
+  // everything else (colour_loss).
+  losses::ColourLoss colour_loss_of(bool vertices) const {
+    return vertices ? config_.geometry_colour_loss : config_.colour_loss;
   }
 
   // One pixel's loss from its pixel_samples radiances L[0 .. k): the loss of
   // their mean (pixel_loss mean, or one sample), or with pixel_loss pairs the
   // colour term from the pairs' residual products and the tone term from the
   // mean. adjoint[q] = d value / d L[q]. The outlier test looks at the mean.
-  RayLoss pixel_loss(const Vec3f* L, int k, const Vec3f& target, float inv_n, Vec3f* adjoint,
+  RayLoss pixel_loss(const Vec3f* L, int k, const Vec3f& target, float inv_n, Vec3f* adjoint, losses::ColourLoss kind,
                      float glint = std::numeric_limits<float>::infinity()) const {
     if (glinting(target, L, k, glint)) {
       for (int q = 0; q < k; ++q) adjoint[q] = Vec3f(0.0f);
@@ -827,14 +865,14 @@ class Stage2 {
     }
     Vec3f mean(0.0f);
     for (int q = 0; q < k; ++q) mean += L[q] / float(k);
-    RayLoss m = ray_loss(mean, target, inv_n);
+    RayLoss m = ray_loss(mean, target, inv_n, kind);
     if (m.skipped || config_.pixel_loss == PixelLoss::mean || k < 2) {
       for (int q = 0; q < k; ++q) adjoint[q] = m.adjoint / float(k);
       return m;
     }
     // pairs: colour = mean over pairs of Σ_ch (f(ĉ₁) − f(c)) (f(ĉ₂) − f(c))
     const Stage2Weights& w = config_.weights;
-    const losses::RayColourLoss tone = losses::ray_colour_loss(mean, target, active_colour_loss(), w.tone != 0.0f);
+    const losses::RayColourLoss tone = losses::ray_colour_loss(mean, target, kind, w.tone != 0.0f);
     RayLoss out;
     out.tone = tone.tone;
     const int pairs = k / 2;
@@ -843,14 +881,80 @@ class Stage2 {
       const Vec3f& a = L[2 * pr];
       const Vec3f& b = L[2 * pr + 1];
       for (int ch = 0; ch < 3; ++ch) {
-        const losses::ColourResidual ra = losses::colour_residual(a[ch], target[ch], active_colour_loss());
-        const losses::ColourResidual rb = losses::colour_residual(b[ch], target[ch], active_colour_loss());
+        const losses::ColourResidual ra = losses::colour_residual(a[ch], target[ch], kind);
+        const losses::ColourResidual rb = losses::colour_residual(b[ch], target[ch], kind);
         out.colour += double(ra.value) * double(rb.value) / pairs;
         adjoint[2 * pr][ch] += w.color * inv_n * rb.value * ra.derivative / float(pairs);
         adjoint[2 * pr + 1][ch] += w.color * inv_n * ra.value * rb.derivative / float(pairs);
       }
     }
     out.value = w.color * inv_n * out.colour + w.tone * inv_n * out.tone;
+    return out;
+  }
+
+  // A pixel p and its neighbour q (Stage2Config::geometry_neighbours): k
+  // radiances of each, L[0 .. k) for p and L[k .. 2k) for q, and the two
+  // photographs. Per channel the residual r = (f(ĉ_p) − f(c_p)) −
+  // (f(ĉ_q) − f(c_q)), f the active colour loss's; the loss is r² of the
+  // two pixels' means (pixel_loss mean, or k = 1), or with pixel_loss pairs
+  // the mean over sample pairs of r(sample 2i)·r(sample 2i + 1), unbiased
+  // under the samples' noise. adjoint[0 .. 2k) = d value / d L. No tone term.
+  RayLoss neighbour_loss(const Vec3f* L, int k, const Vec3f& target_p, const Vec3f& target_q, float inv_n,
+                         Vec3f* adjoint, losses::ColourLoss kind, float glint = std::numeric_limits<float>::infinity()) const {
+    for (int q = 0; q < 2 * k; ++q) adjoint[q] = Vec3f(0.0f);
+    RayLoss out;
+    if (glinting(target_p, L, k, glint) || glinting(target_q, L + k, k, glint)) {
+      out.skipped = true;
+      return out;
+    }
+    const float w = config_.weights.color * inv_n;
+    const auto residual = [&](const Vec3f& a, const Vec3f& b, int ch, float& da, float& db) {
+      const losses::ColourResidual ra = losses::colour_residual(a[ch], target_p[ch], kind);
+      const losses::ColourResidual rb = losses::colour_residual(b[ch], target_q[ch], kind);
+      da = ra.derivative;
+      db = -rb.derivative;
+      return ra.value - rb.value;
+    };
+    if (config_.pixel_loss == PixelLoss::mean || k < 2) {
+      Vec3f mp(0.0f), mq(0.0f);
+      for (int q = 0; q < k; ++q) mp += L[q] / float(k), mq += L[k + q] / float(k);
+      Vec3f dp(0.0f), dq(0.0f);
+      for (int ch = 0; ch < 3; ++ch) {
+        float da = 0.0f, db = 0.0f;
+        const float r = residual(mp, mq, ch, da, db);
+        out.colour += double(r) * r;
+        dp[ch] = 2.0f * r * da;
+        dq[ch] = 2.0f * r * db;
+      }
+      if (!(out.colour <= double(config_.max_ray_loss))) {
+        RayLoss skipped;
+        skipped.skipped = true;
+        return skipped;
+      }
+      for (int q = 0; q < k; ++q) adjoint[q] = w * dp / float(k), adjoint[k + q] = w * dq / float(k);
+    } else {
+      const int pairs = k / 2;
+      for (int pr = 0; pr < pairs; ++pr) {
+        const int a = 2 * pr, b = 2 * pr + 1;
+        for (int ch = 0; ch < 3; ++ch) {
+          float dpa = 0.0f, dqa = 0.0f, dpb = 0.0f, dqb = 0.0f;
+          const float ra = residual(L[a], L[k + a], ch, dpa, dqa);
+          const float rb = residual(L[b], L[k + b], ch, dpb, dqb);
+          out.colour += double(ra) * double(rb) / pairs;
+          adjoint[a][ch] += w * rb * dpa / float(pairs);
+          adjoint[k + a][ch] += w * rb * dqa / float(pairs);
+          adjoint[b][ch] += w * ra * dpb / float(pairs);
+          adjoint[k + b][ch] += w * ra * dqb / float(pairs);
+        }
+      }
+      if (!(std::fabs(out.colour) <= double(config_.max_ray_loss))) {
+        for (int q = 0; q < 2 * k; ++q) adjoint[q] = Vec3f(0.0f);
+        RayLoss skipped;
+        skipped.skipped = true;
+        return skipped;
+      }
+    }
+    out.value = w * out.colour;
     return out;
   }
 
@@ -910,8 +1014,10 @@ class Stage2 {
     std::mt19937_64 rng = batch_generator(it);
     std::vector<BatchRay> rays;
     std::vector<Vec3f> target;
-    draw_batch(rng, rays, target);
+    const bool neighbours = st.geometry_moving && config_.geometry_neighbours;
+    draw_batch(rng, rays, target, neighbours);
     const float glint = glint_level(target, config_.glint_factor);
+    const std::size_t groups = neighbours ? target.size() / 2 : target.size();
 
     // tracer: losses and their gradients
     SceneGradient grad(scene_);
@@ -920,29 +1026,31 @@ class Stage2 {
     po.trace.gradient_refractions = st.geometry_moving ? config_.geometry_refractions : 0;
     po.trace.gradient_depth = st.geometry_moving ? config_.geometry_depth : 0;
     po.trace.attenuation_path_gradient = !st.geometry_moving || config_.attenuation_moves_vertices;
-    const float inv_n = 1.0f / float(std::max<std::size_t>(1, target.size()));
+    const float inv_n = 1.0f / float(std::max<std::size_t>(1, groups));
     const Stage2Weights& w = config_.weights;
     const int k = std::max(1, config_.pixel_samples);
     const std::vector<float> weight = pixel_weights(target, st.geometry_moving, glint);
-    std::vector<double> color_per_ray(target.size(), 0.0), tone_per_ray(target.size(), 0.0);
-    std::vector<std::uint8_t> skipped(target.size(), 0);
+    std::vector<double> color_per_ray(groups, 0.0), tone_per_ray(groups, 0.0);
+    std::vector<std::uint8_t> skipped(groups, 0);
     const auto t1 = clock::now();
-    geometry_loss_active_ = st.geometry_moving;
+    const losses::ColourLoss kind = colour_loss_of(st.geometry_moving);
     const RayBatchResult rb = group_gradient(
-        rays, k,
+        rays, neighbours ? 2 * k : k,
         [&](std::int64_t i, const Vec3f* L, Vec3f* dL) {
-          const RayLoss l = pixel_loss(L, k, target[std::size_t(i)], inv_n * weight[std::size_t(i)], dL, glint);
+          const std::size_t g = std::size_t(i);
+          const RayLoss l = neighbours ? neighbour_loss(L, k, target[2 * g], target[2 * g + 1],
+                                                        inv_n * weight[2 * g], dL, kind, glint)
+                                       : pixel_loss(L, k, target[g], inv_n * weight[g], dL, kind, glint);
           skipped[std::size_t(i)] = l.skipped;
           color_per_ray[std::size_t(i)] = l.colour;
           tone_per_ray[std::size_t(i)] = l.tone;
           return l.value;
         },
         grad, po, st.geometry_moving ? config_.clip_geometry * inv_n : 0.0f, config_.clip_ior * inv_n);
-    geometry_loss_active_ = false;
     st.clipped_rays = rb.clipped_rays;
     st.clipped_ior_rays = rb.clipped_ior_rays;
     st.trace_seconds = std::chrono::duration<double>(clock::now() - t1).count();
-    for (std::size_t i = 0; i < target.size(); ++i) {
+    for (std::size_t i = 0; i < groups; ++i) {
       st.color += color_per_ray[i] * inv_n;
       st.tone += tone_per_ray[i] * inv_n;
       st.skipped_rays += skipped[i];
@@ -1330,11 +1438,13 @@ class Stage2 {
   // glint_factor times the batch's median; 20 when that is off) left out: a
   // loss one can compare between meshes, e.g. at the end of each level of
   // the vertex phase, without the truth. The mean per batch and its
-  // standard error over the batches.
+  // standard error over the batches. With `vertices`, the loss the vertices
+  // step on (geometry_colour_loss; neighbouring pixels with
+  // geometry_neighbours), else the materials' (colour_loss).
   struct FixedLoss {
     double mean = 0.0, standard_error = 0.0;
   };
-  FixedLoss fixed_loss(int batches, std::vector<double>* per_batch_out = nullptr) {
+  FixedLoss fixed_loss(int batches, std::vector<double>* per_batch_out = nullptr, bool vertices = false) {
     const float blur = environment_blur_;
     set_environment_blur(0.0f);
     std::vector<double> per_batch;
@@ -1342,15 +1452,22 @@ class Stage2 {
       std::mt19937_64 rng(config_.seed * 0xD1B54A32D192ED03ull + 0xF1CEDu + std::uint64_t(b));
       std::vector<BatchRay> rays;
       std::vector<Vec3f> target;
-      draw_batch(rng, rays, target);
+      const bool neighbours = vertices && config_.geometry_neighbours;
+      const losses::ColourLoss kind = colour_loss_of(vertices);
+      draw_batch(rng, rays, target, neighbours);
       const float glint = glint_level(target, config_.glint_factor > 0.0f ? config_.glint_factor : 20.0f);
-      const float inv_n = 1.0f / float(std::max<std::size_t>(1, target.size()));
+      const std::size_t groups = neighbours ? target.size() / 2 : target.size();
+      const float inv_n = 1.0f / float(std::max<std::size_t>(1, groups));
       const int k = std::max(1, config_.pixel_samples);
       const std::vector<Vec3f> L = trace_batch(scene_, rays, config_.trace);  // the values only: no tape
-      std::vector<Vec3f> adjoint(static_cast<std::size_t>(k));
+      std::vector<Vec3f> adjoint(static_cast<std::size_t>(2 * k));
       double colour = 0.0;
-      for (std::size_t p = 0; p < target.size(); ++p)
-        colour += pixel_loss(&L[p * std::size_t(k)], k, target[p], inv_n, adjoint.data(), glint).colour * inv_n;
+      for (std::size_t p = 0; p < groups; ++p)
+        colour += (neighbours ? neighbour_loss(&L[2 * p * std::size_t(k)], k, target[2 * p], target[2 * p + 1], inv_n,
+                                               adjoint.data(), kind, glint)
+                              : pixel_loss(&L[p * std::size_t(k)], k, target[p], inv_n, adjoint.data(), kind, glint))
+                      .colour *
+                  inv_n;
       per_batch.push_back(colour);
     }
     set_environment_blur(blur);
@@ -1386,7 +1503,7 @@ class Stage2 {
     group_gradient(
         rays, k,
         [&](std::int64_t i, const Vec3f* L, Vec3f* dL) {
-          return pixel_loss(L, k, target[std::size_t(i)], inv_n, dL, glint).value;
+          return pixel_loss(L, k, target[std::size_t(i)], inv_n, dL, config_.colour_loss, glint).value;
         },
         grad, po, 0.0f, config_.clip_ior * inv_n);
     return grad;
@@ -1470,7 +1587,8 @@ class Stage2 {
         const std::vector<Vec3f> L = trace_batch(scene_, held_rays[std::size_t(b)], config_.trace);
         const float glint = glint_level(target, config_.selection_glint);
         for (std::size_t p = 0; p < target.size(); ++p) {
-          const RayLoss l = pixel_loss(L.data() + p * std::size_t(k), k, target[p], 1.0f, adjoint.data(), glint);
+          const RayLoss l =
+              pixel_loss(L.data() + p * std::size_t(k), k, target[p], 1.0f, adjoint.data(), config_.colour_loss, glint);
           out.push_back(l.skipped ? std::numeric_limits<double>::quiet_NaN() : l.value);
         }
       }
@@ -1941,9 +2059,7 @@ class Stage2 {
   // batch; Stage2Config::keep_best_level decides whether they go back.
   void check_level(int it) {
     std::vector<double> batches;
-    geometry_loss_active_ = true;
-    const FixedLoss l = fixed_loss(config_.level_loss_batches, &batches);
-    geometry_loss_active_ = false;
+    const FixedLoss l = fixed_loss(config_.level_loss_batches, &batches, true);
     io::Json r = {{"iteration", it}, {"loss", l.mean}, {"standard_error", l.standard_error}};
     const bool last = it == config_.freeze_geometry + config_.geometry_iterations;
     bool improved = best_batches_.empty();
@@ -2066,7 +2182,6 @@ class Stage2 {
   Vec3f searched_sky_{std::numeric_limits<float>::quiet_NaN()};
   SigmaSearchEvidence search_evidence_;
   const std::vector<int>* batch_views_ = nullptr;  // the views draw_batch draws from (null: all)
-  bool geometry_loss_active_ = false;              // pixel_loss uses geometry_colour_loss (the vertices move)
   io::Json choice_;                                // choose_absorption's record
   io::Json depth_choice_;                          // choose_depth's record
   int iteration_ = 0;

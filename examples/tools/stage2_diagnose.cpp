@@ -301,7 +301,7 @@ double mean_batch_loss(const HostScene& scene, const std::vector<std::vector<Bat
     const float inv_n = 1.0f / float(r.size());
     const std::vector<RayEval> e = trace_rays(scene, r, settings);
     for (std::size_t i = 0; i < r.size(); ++i)
-      sum += stage.ray_loss(Vec3f(e[i].radiance), targets[std::size_t(b)][i], inv_n).value;
+      sum += stage.ray_loss(Vec3f(e[i].radiance), targets[std::size_t(b)][i], inv_n, stage.config().colour_loss).value;
   }
   return sum / double(std::max(1, count));
 }
@@ -585,7 +585,7 @@ io::Json gradcheck(Setup& setup, const GradcheckOptions& o, bool& passed) {
   io::Json class_counts = io::Json::object();
   for (const std::string& c : ray_classes) class_counts[c] = 0;
   for (std::size_t i = 0; i < n; ++i) {
-    const auto l = stage.ray_loss(Vec3f(at_x[i].radiance), target[i], inv_n);
+    const auto l = stage.ray_loss(Vec3f(at_x[i].radiance), target[i], inv_n, stage.config().colour_loss);
     adjoint[i] = l.adjoint;
     loss0 += l.value;
     const std::string c = ray_class(at_x[i].stats);
@@ -593,7 +593,7 @@ io::Json gradcheck(Setup& setup, const GradcheckOptions& o, bool& passed) {
     class_counts[c] = class_counts[c].get<int>() + 1;
   }
   const LossFn real_loss = [&](std::int32_t i, const Vec3f& L, Vec3f& dL) {
-    const auto l = stage.ray_loss(L, target[std::size_t(i)], inv_n);
+    const auto l = stage.ray_loss(L, target[std::size_t(i)], inv_n, stage.config().colour_loss);
     dL = l.adjoint;
     return l.value;
   };
@@ -661,8 +661,8 @@ io::Json gradcheck(Setup& setup, const GradcheckOptions& o, bool& passed) {
         std::vector<char> same(n);
         for (std::size_t i = 0; i < n; ++i) {
           if (k == full) {
-            const double lp = stage.ray_loss(Vec3f(plus[i].radiance), target[i], inv_n).value;
-            const double lm = stage.ray_loss(Vec3f(minus[i].radiance), target[i], inv_n).value;
+            const double lp = stage.ray_loss(Vec3f(plus[i].radiance), target[i], inv_n, stage.config().colour_loss).value;
+            const double lm = stage.ray_loss(Vec3f(minus[i].radiance), target[i], inv_n, stage.config().colour_loss).value;
             fd[i] = (lp - lm) / (2.0 * h);
           } else {
             fd[i] = glm::dot(Vec3d(adjoint[i]), plus[i].radiance - minus[i].radiance) / (2.0 * h);
@@ -708,7 +708,7 @@ io::Json gradcheck(Setup& setup, const GradcheckOptions& o, bool& passed) {
             for (std::size_t r = 0; r < top; ++r) {
               const std::size_t j = order[r];
               const LossFn one = [&](std::int32_t, const Vec3f& L, Vec3f& dL) {
-                const auto l = stage.ray_loss(L, target[j], inv_n);
+                const auto l = stage.ray_loss(L, target[j], inv_n, stage.config().colour_loss);
                 dL = l.adjoint;
                 return l.value;
               };
@@ -911,7 +911,7 @@ io::Json home(Setup& setup, const HomeOptions& o) {
       const auto& tg = targets[std::size_t(b)];
       const float inv_n = 1.0f / float(r.size());
       const LossFn loss = [&](std::int32_t i, const Vec3f& L, Vec3f& dL) {
-        const auto l = stage.ray_loss(L, tg[std::size_t(i)], inv_n);
+        const auto l = stage.ray_loss(L, tg[std::size_t(i)], inv_n, stage.config().colour_loss);
         dL = l.adjoint;
         return l.value;
       };
@@ -923,7 +923,7 @@ io::Json home(Setup& setup, const HomeOptions& o) {
       // fixed adjoints from the full-depth radiance; parts by depth and by ray subsets
       const std::vector<RayEval> at_x = trace_rays(s, r, setup.trace());
       std::vector<Vec3f> adj(r.size());
-      for (std::size_t i = 0; i < r.size(); ++i) adj[i] = stage.ray_loss(Vec3f(at_x[i].radiance), tg[i], inv_n).adjoint;
+      for (std::size_t i = 0; i < r.size(); ++i) adj[i] = stage.ray_loss(Vec3f(at_x[i].radiance), tg[i], inv_n, stage.config().colour_loss).adjoint;
       const auto fixed = [&](const std::vector<char>& keep) {
         return LossFn([&adj, keep](std::int32_t i, const Vec3f&, Vec3f& dL) {
           dL = keep[std::size_t(i)] ? adj[std::size_t(i)] : Vec3f(0.0f);
@@ -1066,7 +1066,7 @@ io::Json ior_scan(Setup& setup, const IorOptions& o) {
         const render::RayBatchResult rb = render::ray_batch_gradient<float>(
             s, r,
             [&](std::int32_t i, const Vec3f& L, Vec3f& dL) {
-              const auto l = stage.ray_loss(L, tg[std::size_t(i)], inv_n);
+              const auto l = stage.ray_loss(L, tg[std::size_t(i)], inv_n, stage.config().colour_loss);
               dL = l.adjoint;
               return l.value;
             },
@@ -1097,7 +1097,7 @@ io::Json ior_scan(Setup& setup, const IorOptions& o) {
     std::vector<double> ad_ray(r.size());
     double rms = 0.0;
     for (std::size_t i = 0; i < r.size(); ++i) {
-      const Vec3f adj = stage.ray_loss(Vec3f(at[i].radiance), tg[i], inv_n).adjoint;
+      const Vec3f adj = stage.ray_loss(Vec3f(at[i].radiance), tg[i], inv_n, stage.config().colour_loss).adjoint;
       ad_ray[i] = glm::dot(Vec3d(adj), at[i].derivative);
       rms += ad_ray[i] * ad_ray[i];
     }
@@ -1140,8 +1140,8 @@ io::Json ior_scan(Setup& setup, const IorOptions& o) {
       std::int64_t agree = 0, changed = 0;
       std::map<std::string, Agreement> by_class;
       for (std::size_t i = 0; i < r.size(); ++i) {
-        const double lu = stage.ray_loss(Vec3f(up[i].radiance), tg[i], inv_n).value;
-        const double ld = stage.ray_loss(Vec3f(down[i].radiance), tg[i], inv_n).value;
+        const double lu = stage.ray_loss(Vec3f(up[i].radiance), tg[i], inv_n, stage.config().colour_loss).value;
+        const double ld = stage.ray_loss(Vec3f(down[i].radiance), tg[i], inv_n, stage.config().colour_loss).value;
         const double fd = (lu - ld) / step, a = ad_ray[i];
         const bool ok = std::abs(fd - a) <= 0.01 * std::abs(a) + 1e-3 * rms;
         const bool moved = !same_path(up[i].stats, at[i].stats) || !same_path(down[i].stats, at[i].stats);

@@ -464,6 +464,24 @@ TEST_CASE("stage 2 with geometry: a dented sphere moves towards the truth") {
     CHECK(plain.ior_at_freeze == log_loss.ior_at_freeze);  // the materials-only iterations bit for bit as they were
     CHECK(plain.positions != log_loss.positions);          // the vertices follow another loss
   }
+  SUBCASE("neighbouring pixels (Stage2Config::geometry_neighbours) act while the vertices move, and only then") {
+    const VertexPhase one = vertex_phase([](pipeline::Stage2Config& c) { c.geometry_neighbours = false; });
+    const VertexPhase two = vertex_phase([](pipeline::Stage2Config& c) { c.geometry_neighbours = true; });
+    CHECK(one.ior_at_freeze == two.ior_at_freeze);  // the materials-only iterations bit for bit as they were
+    CHECK(one.positions != two.positions);          // the vertices see other pixels and another residual
+  }
+  SUBCASE("neighbouring pixels under log L2 still take the dent out") {
+    dr::HostScene s = dented();
+    pipeline::Stage2Config c = cfg;
+    c.geometry_neighbours = true;
+    c.geometry_colour_loss = losses::ColourLoss::log_l2;
+    pipeline::Stage2 st(s, views_of(photos), mask_views_of(photos), c);
+    while (!st.done()) st.step();
+    const double after = radius_error(s);
+    MESSAGE("neighbours, log L2: mean |r - 0.4| " << before << " -> " << after);
+    CHECK(after < 0.5 * before);
+    CHECK(dg::mesh_genus(s.mesh.triangles, s.mesh.num_vertices()).closed);
+  }
   SUBCASE("the silhouette term alone (the plumbing: freeze, large steps, BVH refit)") {
     dr::HostScene s = dented();
     pipeline::Stage2Config c = cfg;
@@ -473,6 +491,53 @@ TEST_CASE("stage 2 with geometry: a dented sphere moves towards the truth") {
     const double after = radius_error(s);
     MESSAGE("silhouettes alone: mean |r - 0.4| " << before << " -> " << after);
     CHECK(after < 0.5 * before);
+  }
+}
+
+TEST_CASE("Stage2::neighbour_loss: blind to a residual shared by the two pixels; adjoints against differences") {
+  const dr::HostScene truth = glass_sphere(1.45f, Vec3f(0.0f));
+  const Photos photos = photograph(truth, 2, 16);
+  dr::HostScene s = glass_sphere(1.45f, Vec3f(0.0f));
+  const Vec3f tp(0.30f, 0.55f, 0.12f), tq(0.80f, 0.20f, 0.45f);
+  for (const losses::ColourLoss kind : {losses::ColourLoss::l2, losses::ColourLoss::log_l2}) {
+    for (const pipeline::PixelLoss mode : {pipeline::PixelLoss::mean, pipeline::PixelLoss::pairs}) {
+      CAPTURE(int(kind));
+      CAPTURE(int(mode));
+      pipeline::Stage2Config c;
+      c.pixel_loss = mode;
+      c.iterations = 1;
+      pipeline::Stage2 st(s, views_of(photos), mask_views_of(photos), c);
+      const int k = 2;
+      // both pixels off by the same per-channel amount: additive for l2,
+      // a gain on 1 + x for log_l2 (what an absorption's factor becomes)
+      const Vec3f shift(0.07f, -0.05f, 0.11f), gain(0.85f, 1.3f, 0.95f);  // every sample stays above 0
+      const auto shared = [&](const Vec3f& t, float wobble) {
+        return kind == losses::ColourLoss::l2 ? t + shift + wobble : gain * (Vec3f(1.0f) + t) - Vec3f(1.0f) + wobble;
+      };
+      // samples scattered symmetrically around the shared residual: their
+      // means carry it exactly
+      std::vector<Vec3f> L = {shared(tp, 0.0f), shared(tp, 0.0f), shared(tq, 0.0f), shared(tq, 0.0f)};
+      std::vector<Vec3f> adjoint(2 * k);
+      const pipeline::Stage2::RayLoss blind = st.neighbour_loss(L.data(), k, tp, tq, 1.0f, adjoint.data(), kind);
+      CHECK(std::abs(blind.colour) < 1e-10);
+      for (const Vec3f& a : adjoint) CHECK(glm::length(a) < 1e-5f);
+      // a residual at one pixel only is seen
+      L = {shared(tp, 0.05f), shared(tp, 0.03f), shared(tq, 0.0f), shared(tq, -0.01f)};
+      const pipeline::Stage2::RayLoss seen = st.neighbour_loss(L.data(), k, tp, tq, 1.0f, adjoint.data(), kind);
+      CHECK(seen.colour > 1e-4);
+      // adjoints against central differences of the value
+      for (int q = 0; q < 2 * k; ++q)
+        for (int ch = 0; ch < 3; ++ch) {
+          std::vector<Vec3f> up = L, down = L, scratch(2 * k);
+          const float h = 1e-3f;
+          up[std::size_t(q)][ch] += h;
+          down[std::size_t(q)][ch] -= h;
+          const double fd = (st.neighbour_loss(up.data(), k, tp, tq, 1.0f, scratch.data(), kind).value -
+                             st.neighbour_loss(down.data(), k, tp, tq, 1.0f, scratch.data(), kind).value) /
+                            (2.0 * h);
+          CHECK(adjoint[std::size_t(q)][ch] == doctest::Approx(fd).epsilon(2e-2).scale(1e-3));
+        }
+    }
   }
 }
 
