@@ -290,20 +290,30 @@ struct Stage2Config {
   int depth_batches = 4;
   std::vector<float> prune_candidates{0.1f, 0.03f, 0.01f, 0.003f};
   losses::ColourLoss colour_loss = losses::ColourLoss::l2;  // losses/photometric.hpp
-  // The colour loss while the vertices move (and of their level checks).
-  losses::ColourLoss geometry_colour_loss = losses::ColourLoss::l2;
+  // The colour loss while the vertices move (and of their level checks):
+  // log L2, whose residual a wrong absorption shifts by nearly the same
+  // amount at neighbouring pixels (geometry_neighbours).
+  losses::ColourLoss geometry_colour_loss = losses::ColourLoss::log_l2;
   // While the vertices move (and in their level checks), each drawn pixel
-  // comes with a neighbour (neighbour_distance pixels right, left, up or down) and the
-  // vertices see the difference of the two pixels' residuals,
+  // comes with a neighbour (neighbour_distance pixels right, left, up or
+  // down) and the vertices see the difference of the two pixels' residuals,
   // (f(ĉ_p) − f(c_p)) − (f(ĉ_q) − f(c_q)) with f geometry_colour_loss's
   // (log(1 + x) for log_l2), no tone term: a residual the same at both
   // pixels — an absorption or a sky the materials have not yet fitted,
   // multiplicative, so constant across neighbours in log — moves no vertex,
   // while one the refraction shifts across the image does. The batch keeps
   // its ray count (half as many drawn pixels, each with its neighbour).
-  bool geometry_neighbours = false;
-  // How far the neighbour lies, in pixels (along a row or a column).
-  int neighbour_distance = 1;
+  // Against each pixel's own L2 residual (=false with geometry_colour_loss
+  // l2), seed 1: monkey-bands' CD ratio 1.51 → 0.78, the holes-3 slab 2.11
+  // → 1.48, bunny-clear 0.94 → 0.93, horse-green 0.71 → 0.72, spot-clear
+  // 0.52 → 0.60 (docs/stage2-diagnostics.md, "Neighbouring pixels").
+  bool geometry_neighbours = true;
+  // How far the neighbour lies, in pixels (along a row or a column): far
+  // enough that a surface error a few pixels wide still changes the
+  // residual between the two, near enough that an absorption's does not
+  // (monkey-bands' CD ratio 0.84 at 1 pixel, 0.78 at 4, 0.90 at 8;
+  // docs/stage2-diagnostics.md, "Neighbouring pixels").
+  int neighbour_distance = 4;
   // Pixels whose colour loss exceeds this are skipped (NaN always is). Off:
   // skipping at 1e3 removed the samples that met a sun glint the photograph
   // did not show (a residual in the thousands) but kept most of the opposite
@@ -557,11 +567,11 @@ struct Stage2Config {
     v(Field{"colour_loss", "--materials-colour-loss", "colour loss per ray: l2, relative_l2 or log_l2 (L2 of log(1 + x))"},
       c.colour_loss);
     v(Field{"geometry_colour_loss", "--materials-geometry-colour-loss",
-            "colour loss per ray while the vertices move: l2, relative_l2 or log_l2"},
+            "colour loss per ray while the vertices move: log_l2, l2 or relative_l2"},
       c.geometry_colour_loss);
     v(Field{"geometry_neighbours", "--materials-geometry-neighbours",
             "the vertices see the difference between neighbouring pixels' residuals (a residual smooth across the "
-            "image, as a wrong absorption leaves under log_l2, moves no vertex)"},
+            "image, as a wrong absorption leaves under log_l2, moves no vertex; =false: each pixel's own)"},
       c.geometry_neighbours);
     v(Field{"neighbour_distance", "--materials-neighbour-distance",
             "pixels between a pixel and its neighbour for --materials-geometry-neighbours", 1, 64},
