@@ -911,12 +911,15 @@ class Stage2 {
   // under the samples' noise. adjoint[0 .. 2k) = d value / d L. No tone term.
   RayLoss neighbour_loss(const Vec3f* L, int k, const Vec3f& target_p, const Vec3f& target_q, float inv_n,
                          Vec3f* adjoint, losses::ColourLoss kind, float glint = std::numeric_limits<float>::infinity()) const {
+    const auto skip = [&] {
+      for (int q = 0; q < 2 * k; ++q) adjoint[q] = Vec3f(0.0f);
+      RayLoss skipped;
+      skipped.skipped = true;
+      return skipped;
+    };
+    if (glinting(target_p, L, k, glint) || glinting(target_q, L + k, k, glint)) return skip();
     for (int q = 0; q < 2 * k; ++q) adjoint[q] = Vec3f(0.0f);
     RayLoss out;
-    if (glinting(target_p, L, k, glint) || glinting(target_q, L + k, k, glint)) {
-      out.skipped = true;
-      return out;
-    }
     const float w = config_.weights.color * inv_n;
     const auto residual = [&](const Vec3f& a, const Vec3f& b, int ch, float& da, float& db) {
       const losses::ColourResidual ra = losses::colour_residual(a[ch], target_p[ch], kind);
@@ -936,11 +939,7 @@ class Stage2 {
         dp[ch] = 2.0f * r * da;
         dq[ch] = 2.0f * r * db;
       }
-      if (!(out.colour <= double(config_.max_ray_loss))) {
-        RayLoss skipped;
-        skipped.skipped = true;
-        return skipped;
-      }
+      if (!(out.colour <= double(config_.max_ray_loss))) return skip();
       for (int q = 0; q < k; ++q) adjoint[q] = w * dp / float(k), adjoint[k + q] = w * dq / float(k);
     } else {
       const int pairs = k / 2;
@@ -957,15 +956,19 @@ class Stage2 {
           adjoint[k + b][ch] += w * ra * dqb / float(pairs);
         }
       }
-      if (!(std::fabs(out.colour) <= double(config_.max_ray_loss))) {
-        for (int q = 0; q < 2 * k; ++q) adjoint[q] = Vec3f(0.0f);
-        RayLoss skipped;
-        skipped.skipped = true;
-        return skipped;
-      }
+      if (!(std::fabs(out.colour) <= double(config_.max_ray_loss))) return skip();
     }
     out.value = w * out.colour;
     return out;
+  }
+
+  // One group's loss: a pixel's (pixel_loss; k radiances, target[0]) or,
+  // with neighbours, a pixel and its neighbour's (neighbour_loss; 2k
+  // radiances, target[0] and target[1]).
+  RayLoss group_loss(const Vec3f* L, int k, const Vec3f* target, bool neighbours, float inv_n, Vec3f* adjoint,
+                     losses::ColourLoss kind, float glint) const {
+    return neighbours ? neighbour_loss(L, k, target[0], target[1], inv_n, adjoint, kind, glint)
+                      : pixel_loss(L, k, target[0], inv_n, adjoint, kind, glint);
   }
 
   // Stage2Config::vertex_brightness_power: each pixel's weight in this
@@ -1048,9 +1051,8 @@ class Stage2 {
         rays, neighbours ? 2 * k : k,
         [&](std::int64_t i, const Vec3f* L, Vec3f* dL) {
           const std::size_t g = std::size_t(i);
-          const RayLoss l = neighbours ? neighbour_loss(L, k, target[2 * g], target[2 * g + 1],
-                                                        inv_n * weight[2 * g], dL, kind, glint)
-                                       : pixel_loss(L, k, target[g], inv_n * weight[g], dL, kind, glint);
+          const std::size_t first = neighbours ? 2 * g : g;
+          const RayLoss l = group_loss(L, k, &target[first], neighbours, inv_n * weight[first], dL, kind, glint);
           skipped[std::size_t(i)] = l.skipped;
           color_per_ray[std::size_t(i)] = l.colour;
           tone_per_ray[std::size_t(i)] = l.tone;
@@ -1470,12 +1472,12 @@ class Stage2 {
       const float inv_n = 1.0f / float(std::max<std::size_t>(1, groups));
       const int k = std::max(1, config_.pixel_samples);
       const std::vector<Vec3f> L = trace_batch(scene_, rays, config_.trace);  // the values only: no tape
-      std::vector<Vec3f> adjoint(static_cast<std::size_t>(2 * k));
+      const std::size_t per_group = neighbours ? 2 : 1;
+      std::vector<Vec3f> adjoint(per_group * std::size_t(k));
       double colour = 0.0;
       for (std::size_t p = 0; p < groups; ++p)
-        colour += (neighbours ? neighbour_loss(&L[2 * p * std::size_t(k)], k, target[2 * p], target[2 * p + 1], inv_n,
-                                               adjoint.data(), kind, glint)
-                              : pixel_loss(&L[p * std::size_t(k)], k, target[p], inv_n, adjoint.data(), kind, glint))
+        colour += group_loss(&L[per_group * p * std::size_t(k)], k, &target[per_group * p], neighbours, inv_n,
+                             adjoint.data(), kind, glint)
                       .colour *
                   inv_n;
       per_batch.push_back(colour);
