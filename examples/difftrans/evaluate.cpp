@@ -33,6 +33,8 @@ struct EvaluateOptions {
   std::optional<fs::path> out;
   std::string error_map;
   std::optional<double> error_scale;
+  int bands = 0;
+  std::string band_axis = "y";
 };
 
 // The images of a folder by name (stem); a name in several formats keeps the
@@ -91,6 +93,29 @@ void write_error_map(const EvaluateOptions& o, const io::Mesh& pred, const io::M
                          {"fraction_above_tau", above / n}};
 }
 
+// --bands: the chamfer split into slabs of the truth's extent along
+// --band-axis (metrics::chamfer_bands), lowest first, each with its share.
+void write_chamfer_bands(const EvaluateOptions& o, const io::Mesh& pred, const io::Mesh& gt,
+                         const metrics::GeometryOptions& options, io::Json& result) {
+  const int axis = int(o.band_axis[0] - 'x');
+  progress("evaluate: the chamfer in " + std::to_string(o.bands) + " bands along " + o.band_axis);
+  const metrics::ChamferBands b = metrics::chamfer_bands(pred, gt, axis, o.bands, options);
+  double total = 0.0;
+  for (int i = 0; i < o.bands; ++i) total += b.predicted[std::size_t(i)] + b.truth[std::size_t(i)];
+  io::Json list = io::Json::array();
+  const double width = (b.to - b.from) / double(o.bands);
+  for (int i = 0; i < o.bands; ++i) {
+    const double part = b.predicted[std::size_t(i)] + b.truth[std::size_t(i)];
+    list.push_back({{"from", b.from + width * i},
+                    {"to", b.from + width * (i + 1)},
+                    {"chamfer", part},
+                    {"predicted_to_truth", b.predicted[std::size_t(i)]},
+                    {"truth_to_predicted", b.truth[std::size_t(i)]},
+                    {"share", total > 0.0 ? part / total : 0.0}});
+  }
+  result["chamfer_bands"] = {{"axis", o.band_axis}, {"bands", list}};
+}
+
 void evaluate_geometry(const EvaluateOptions& o, io::Json& result) {
   std::vector<std::string> warnings;
   progress("evaluate: reading " + o.pred + " and " + o.gt);
@@ -113,6 +138,7 @@ void evaluate_geometry(const EvaluateOptions& o, io::Json& result) {
   result["seed"] = o.seed;
   result["mesh_warnings"] = warnings;
   if (!o.error_map.empty()) write_error_map(o, pred, gt, options, result);
+  if (o.bands > 0) write_chamfer_bands(o, pred, gt, options, result);
 }
 
 // Ground truth from a scene directory's split: images and masks by frame name.
@@ -201,6 +227,7 @@ void run(const EvaluateOptions& o) {
     throw CLI::ValidationError("--error-map and --error-scale need --pred and --gt");
   if (!o.error_map.empty() && io::detail::lower_extension(o.error_map) != ".ply")
     throw CLI::ValidationError("--error-map writes a PLY file (vertex colours): name it .ply, not " + o.error_map);
+  if (o.bands > 0 && !geometry) throw CLI::ValidationError("--bands needs --pred and --gt");
   if (!geometry && !images && !ior)
     throw CLI::ValidationError("nothing to evaluate: give --pred/--gt, --pred-images/--gt-images or --pred-ior/--gt-ior");
   io::Json result = io::Json::object();
@@ -225,7 +252,9 @@ void add_evaluate(CLI::App& app) {
       "Infinite values (identical images) are written as null.\n"
       "Error map: difftrans evaluate --pred MESH --gt MESH --error-map ERR.ply\n"
       "  where the prediction is wrong, as vertex colours (and ERR.png, a picture of them); the distances' quantiles\n"
-      "  in the JSON (error_map).");
+      "  in the JSON (error_map).\n"
+      "Where the error lies: difftrans evaluate --pred MESH --gt MESH --bands 5 [--band-axis y]\n"
+      "  the chamfer split into slabs of the truth's height (chamfer_bands: each slab's part and share).");
   cmd->add_option("--pred", o->pred, "predicted mesh (.obj or .ply)");
   cmd->add_option("--gt", o->gt, "ground-truth mesh (.obj or .ply)");
   cmd->add_option("--samples", o->samples, "points sampled per mesh")->capture_default_str()->check(CLI::PositiveNumber);
@@ -245,6 +274,12 @@ void add_evaluate(CLI::App& app) {
                   "ERR.png: the same colours seen from six sides, and the scale");
   cmd->add_option("--error-scale", o->error_scale, "distance drawn pale yellow in --error-map (default: --tau)")
       ->check(CLI::PositiveNumber);
+  cmd->add_option("--bands", o->bands,
+                  "with --pred/--gt: split the chamfer into this many equal slabs of the truth's extent along "
+                  "--band-axis, each point counted in its slab (0: none)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 1000));
+  cmd->add_option("--band-axis", o->band_axis, "axis of --bands")->capture_default_str()->check(CLI::IsMember({"x", "y", "z"}));
   cmd->callback([o] { run(*o); });
 }
 
