@@ -31,8 +31,9 @@
 //              against the truth (metrics::surface_movement): correction,
 //              common offset or wandering, and where; with --contours,
 //              split by how many masks' outlines pin each vertex; with
-//              --write-map, pictures of the signed movement and of the
-//              error it added.
+//              --bands, by slabs along an axis (a base the silhouettes
+//              miss); with --write-map, pictures of the signed movement
+//              and of the error it added.
 //
 // Results are JSON on stdout, progress on stderr.
 #include <CLI/CLI.hpp>
@@ -1348,6 +1349,8 @@ struct MovementOptions {
   fs::path write_map;  // PREFIX: PREFIX_moved.png, PREFIX_change.png
   double scale = 0.01;
   double contour_band = 0.0;  // > 0: split the vertices by how many training masks' outlines pin them
+  int bands = 0;               // > 0: split the vertices into slabs along band_axis
+  std::string band_axis = "y";
 };
 
 // Blue (−1) through light grey (0) to red (+1); t in [0, 1] maps −1..1.
@@ -1412,6 +1415,66 @@ io::Json movement_against_absorption(const MovementOptions& o, const io::Mesh& m
           {"moved_per_unit_log_ratio", srr > 0.0 ? srm / srr : 0.0}};
 }
 
+// The movement's figures over the vertices v with in(v): how many, their
+// share, the mean and RMS signed distances before and after, the mean and
+// RMS movement, the mean change of |distance| (> 0: worse than stage 1) and
+// the gain of moved against −before within the group.
+io::Json movement_group(const metrics::SurfaceMovement& s, const std::function<bool(std::size_t)>& in) {
+  std::size_t n = 0;
+  double b = 0.0, a = 0.0, bb = 0.0, aa = 0.0, m = 0.0, mm = 0.0, change = 0.0;
+  double xx = 0.0, xy = 0.0, sx = 0.0, sy = 0.0;
+  for (std::size_t v = 0; v < s.moved.size(); ++v) {
+    if (!in(v)) continue;
+    ++n;
+    b += s.before[v], a += s.after[v];
+    bb += s.before[v] * s.before[v], aa += s.after[v] * s.after[v];
+    m += s.moved[v], mm += s.moved[v] * s.moved[v];
+    change += std::abs(s.after[v]) - std::abs(s.before[v]);
+    const double x = -s.before[v], y = s.moved[v];
+    sx += x, sy += y, xx += x * x, xy += x * y;
+  }
+  const double k = std::max<double>(1.0, double(n));
+  const double var = xx / k - (sx / k) * (sx / k);
+  return {{"vertices", n},
+          {"share", double(n) / std::max<double>(1.0, double(s.moved.size()))},
+          {"mean_before", b / k},
+          {"mean_after", a / k},
+          {"rms_before", std::sqrt(bb / k)},
+          {"rms_after", std::sqrt(aa / k)},
+          {"mean_moved", m / k},
+          {"rms_moved", std::sqrt(mm / k)},
+          {"mean_change", change / k},
+          {"gain", var > 0.0 ? (xy / k - (sx / k) * (sy / k)) / var : 0.0}};
+}
+
+// The movement split into o.bands equal slabs of the truth's extent along
+// o.band_axis, each vertex of the moved mesh in the slab of its own
+// coordinate (in the truth's unit box, as evaluate --bands): did stage 2
+// move the part that held the error (a base no silhouette shows) toward
+// the truth, or wander there?
+io::Json movement_by_bands(const MovementOptions& o, const io::Mesh& moved, const io::Mesh& truth,
+                           const metrics::SurfaceMovement& s) {
+  const int axis = int(o.band_axis[0] - 'x');
+  const io::UnitBoxTransform frame = io::unit_box_transform(truth);
+  io::Mesh m = moved, t = truth;
+  io::apply_transform(frame, m);
+  io::apply_transform(frame, t);
+  float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+  for (const Vec3f& p : t.positions) lo = std::min(lo, p[axis]), hi = std::max(hi, p[axis]);
+  const double width = hi > lo ? double(hi - lo) / double(o.bands) : 1.0;
+  std::vector<int> band(m.positions.size());
+  for (std::size_t v = 0; v < band.size(); ++v)
+    band[v] = int(std::clamp(std::floor((double(m.positions[v][axis]) - lo) / width), 0.0, double(o.bands - 1)));
+  io::Json rows = io::Json::array();
+  for (int b = 0; b < o.bands; ++b) {
+    io::Json row = movement_group(s, [&](std::size_t v) { return band[v] == b; });
+    row["from"] = double(lo) + width * b;
+    row["to"] = double(lo) + width * (b + 1);
+    rows.push_back(row);
+  }
+  return {{"axis", o.band_axis}, {"bands", rows}};
+}
+
 // The movement split by how many training views' mask outlines pass within
 // o.contour_band pixels of each vertex's stage-1 position (scene::contour_views;
 // the reference's vertex when the two meshes share their vertices, else the
@@ -1444,32 +1507,9 @@ io::Json movement_by_contours(const MovementOptions& o, const io::Mesh& moved, c
   }
   io::Json rows = io::Json::array();
   for (const Group& g : groups) {
-    std::size_t n = 0;
-    double b = 0.0, a = 0.0, bb = 0.0, aa = 0.0, m = 0.0, mm = 0.0, change = 0.0;
-    double xx = 0.0, xy = 0.0, sx = 0.0, sy = 0.0;
-    for (std::size_t v = 0; v < counts->size(); ++v) {
-      if ((*counts)[v] < g.lo || (*counts)[v] > g.hi) continue;
-      ++n;
-      b += s.before[v], a += s.after[v];
-      bb += s.before[v] * s.before[v], aa += s.after[v] * s.after[v];
-      m += s.moved[v], mm += s.moved[v] * s.moved[v];
-      change += std::abs(s.after[v]) - std::abs(s.before[v]);
-      const double x = -s.before[v], y = s.moved[v];
-      sx += x, sy += y, xx += x * x, xy += x * y;
-    }
-    const double k = std::max<double>(1.0, double(n));
-    const double var = xx / k - (sx / k) * (sx / k);
-    rows.push_back({{"views", {g.lo, g.hi}},
-                    {"vertices", n},
-                    {"share", double(n) / std::max<double>(1.0, double(counts->size()))},
-                    {"mean_before", b / k},
-                    {"mean_after", a / k},
-                    {"rms_before", std::sqrt(bb / k)},
-                    {"rms_after", std::sqrt(aa / k)},
-                    {"mean_moved", m / k},
-                    {"rms_moved", std::sqrt(mm / k)},
-                    {"mean_change", change / k},  // mean of |after| − |before|: > 0 worse than stage 1
-                    {"gain", var > 0.0 ? (xy / k - (sx / k) * (sy / k)) / var : 0.0}});
+    io::Json row = movement_group(s, [&](std::size_t v) { return (*counts)[v] >= g.lo && (*counts)[v] <= g.hi; });
+    row["views"] = {g.lo, g.hi};
+    rows.push_back(row);
   }
   return {{"band_pixels", o.contour_band}, {"views", views.size()}, {"histogram", histogram}, {"groups", rows}};
 }
@@ -1519,6 +1559,7 @@ io::Json movement(const MovementOptions& o) {
   if (!o.material.empty()) out["against_absorption"] = movement_against_absorption(o, moved, truth, s);
   std::vector<int> contours;
   if (o.contour_band > 0.0) out["by_contour_views"] = movement_by_contours(o, moved, reference, s, &contours);
+  if (o.bands > 0) out["by_bands"] = movement_by_bands(o, moved, truth, s);
   if (!o.write_map.empty()) {
     const std::vector<float> positions = io::flat_positions(moved);
     const std::vector<std::int32_t> triangles = io::flat_triangles(moved);
@@ -1628,6 +1669,10 @@ int main(int argc, char** argv) {
       ->capture_default_str()->check(CLI::NonNegativeNumber);
   mv->add_option("--scale", mo.scale, "The maps' full colour, in the truth's unit box")->capture_default_str()
       ->check(CLI::PositiveNumber);
+  mv->add_option("--bands", mo.bands, "Split the vertices into this many equal slabs of the truth's extent along "
+                                      "--band-axis (0: no split)")
+      ->capture_default_str()->check(CLI::Range(0, 1000));
+  mv->add_option("--band-axis", mo.band_axis, "Axis of --bands")->capture_default_str()->check(CLI::IsMember({"x", "y", "z"}));
 
   EnvironmentOptions eo;
   CLI::App* e = app.add_subcommand("environment", "Where the object's light comes from (seen / unseen by the "
