@@ -321,7 +321,13 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
                                                  fixed(r.value("above_best", 0.0), 5) + " +- " +
                                                  fixed(r.value("above_best_standard_error", 0.0), 5)
                                            : std::string()) +
-                 ": " + r.value("decision", std::string()));
+                 ": " + r.value("decision", std::string()) +
+                 (r.contains("vertex_steps")
+                      ? "; its " + std::to_string(r.value("vertex_steps", 0)) + " steps before: scale " +
+                            fixed(r.value("mean_vertex_scale", 0.0), 6) + ", agreement " +
+                            fixed(r.value("mean_vertex_agreement", 0.0), 3) + ", peak " +
+                            fixed(r.value("mean_vertex_peak", 0.0), 1)
+                      : std::string()));
       }
       if (st.geometry_moving) levels.step(st, s.mesh);
       if (choosing) {

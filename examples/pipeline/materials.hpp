@@ -636,6 +636,9 @@ struct Stage2Stats {
   Vec3f sky_scale{1.0f};          // the unseen sky's factor (fit_unseen_sky)
   float environment_blur = 0.0f;  // σ in texels of the map this iteration
   double lambda = 0.0;            // large steps' λ of the vertices this iteration (0: they hold still)
+  // the vertex step of this iteration (0 when they hold still): its factor
+  // (AdamUniform::last_scale) and the moments' agreement and peak (AdamMoments::summary)
+  double vertex_scale = 0.0, vertex_agreement = 0.0, vertex_peak = 0.0;
   std::int64_t rays = 0, skipped_rays = 0, overflowed_rays = 0, clipped_rays = 0, clipped_ior_rays = 0;
   double seconds = 0.0, trace_seconds = 0.0;
 };
@@ -1118,6 +1121,11 @@ class Stage2 {
         if (!std::isfinite(g)) g = 0.0f;
       positions_.step(scene_.mesh.positions, grad.positions, decay * vertex_anneal(it) * config_.lr_positions);
       scene_.positions_changed();
+      const auto moments = positions_.adam().summary();
+      st.vertex_scale = positions_.adam().last_scale();
+      st.vertex_agreement = moments.agreement;
+      st.vertex_peak = moments.peak;
+      level_moments_.add(st);
     }
     if (sky_moving) {
       // d loss / d log(factor): the unseen texels' gradients times their values
@@ -2073,6 +2081,16 @@ class Stage2 {
     std::vector<double> batches;
     const FixedLoss l = fixed_loss(config_.level_loss_batches, &batches, true);
     io::Json r = {{"iteration", it}, {"loss", l.mean}, {"standard_error", l.standard_error}};
+    if (level_moments_.steps > 0) {
+      // the steps since the last check: how far they went and how well the
+      // batches' gradients agreed (Stage2Stats::vertex_*)
+      const double n = double(level_moments_.steps);
+      r["vertex_steps"] = level_moments_.steps;
+      r["mean_vertex_scale"] = level_moments_.scale / n;
+      r["mean_vertex_agreement"] = level_moments_.agreement / n;
+      r["mean_vertex_peak"] = level_moments_.peak / n;
+      level_moments_ = {};
+    }
     const bool last = it == config_.freeze_geometry + config_.geometry_iterations;
     bool improved = best_batches_.empty();
     if (improved) {
@@ -2172,6 +2190,17 @@ class Stage2 {
   std::vector<double> best_batches_;
   int best_iteration_ = -1, stopped_at_ = -1;
   io::Json vertex_levels_ = io::Json::array();
+  // the vertex steps' Stage2Stats::vertex_* summed since the last level check
+  struct LevelMoments {
+    int steps = 0;
+    double scale = 0.0, agreement = 0.0, peak = 0.0;
+    void add(const Stage2Stats& st) {
+      ++steps;
+      scale += st.vertex_scale;
+      agreement += st.vertex_agreement;
+      peak += st.vertex_peak;
+    }
+  } level_moments_;
   std::vector<float> stage1_positions_, stage1_normals_;  // the mesh the stage started from (Stage2Config::anchor)
   float stage1_edge_ = 0.0f;                              // its mean edge length
   std::vector<float> sharp_environment_;  // the map (distant maps only), its unseen sky scaled

@@ -6,6 +6,7 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <vector>
 
 using namespace difftrans::optim;
@@ -151,4 +152,34 @@ TEST_CASE("state and restore continue a run exactly (checkpoints)") {
   AdamState bad = saved;
   bad.g2.pop_back();
   CHECK_THROWS_AS(b.restore(bad), std::invalid_argument);
+}
+
+TEST_CASE("summary: agreement 1 for a repeated gradient, (1 - beta1) / (1 + beta1) for noise; the peak entry") {
+  AdamOptions o;
+  o.beta1 = 0.9f;
+  o.beta2 = 0.999f;
+  CHECK(AdamUniform(4, o).summary().agreement == 0.0);  // no step yet
+  AdamUniform same(4, o);
+  std::vector<float> p(4, 0.0f);
+  for (int i = 0; i < 50; ++i) same.step(p, {1.0f, -2.0f, 0.5f, 0.5f}, 1e-3f);
+  const auto s = same.summary();
+  CHECK(s.agreement == doctest::Approx(1.0).epsilon(1e-4));
+  // the largest entry (2) against the RMS of (1, 2, 0.5, 0.5): √(5.5 / 4)
+  CHECK(s.peak == doctest::Approx(2.0 / std::sqrt(5.5 / 4.0)).epsilon(1e-4));
+
+  // independent signs, entry by entry and step by step: the mean keeps
+  // (1 − β1) / (1 + β1) of the energy once the moments have settled
+  Adam noise(2000, o);
+  std::vector<float> q(2000, 0.0f), g(2000);
+  std::uint64_t state = 12345;
+  for (int i = 0; i < 400; ++i) {
+    for (float& x : g) {
+      state = state * 6364136223846793005ull + 1442695040888963407ull;
+      x = (state >> 63) ? 1.0f : -1.0f;
+    }
+    noise.step(q, g, 1e-3f);
+  }
+  const auto n = noise.summary();
+  CHECK(n.agreement == doctest::Approx(0.1 / 1.9).epsilon(0.1));
+  CHECK(n.peak == doctest::Approx(1.0).epsilon(1e-3));
 }

@@ -70,6 +70,32 @@ class AdamMoments {
   const std::vector<float>& second_moment() const { return g2_; }
 
   AdamState state() const { return {g1_, g2_, steps_}; }
+
+  // How the gradient behaves, from the moments (bias-corrected):
+  // agreement = |m̂1|² / Σ m̂2, the share of the gradient's energy that its
+  // running mean keeps: 1 for a gradient that repeats step after step, about
+  // (1 − β1) / (1 + β1) (0.053 at β1 0.9) for one that is pure noise;
+  // peak = max √m̂2 / √(mean m̂2), how far the largest entry stands above the
+  // typical one (1 when all are alike; AdamUniform's step scales with its
+  // inverse). Both 0 before the first step or for a zero gradient.
+  struct Summary {
+    double agreement = 0.0, peak = 0.0;
+  };
+  Summary summary() const {
+    Summary s;
+    double m1 = 0.0, m2 = 0.0, top = 0.0;
+    for (std::size_t i = 0; i < g1_.size(); ++i) {
+      m1 += double(g1_[i]) * double(g1_[i]);
+      m2 += double(g2_[i]);
+      top = std::max(top, double(g2_[i]));
+    }
+    if (steps_ == 0 || !(m2 > 0.0)) return s;
+    const double c1 = 1.0 - std::pow(double(options_.beta1), double(steps_));
+    const double c2 = 1.0 - std::pow(double(options_.beta2), double(steps_));
+    s.agreement = (m1 / (c1 * c1)) / (m2 / c2);
+    s.peak = std::sqrt(top / (m2 / double(g2_.size())));
+    return s;
+  }
   // Continues from a saved state (its size becomes the optimizer's size).
   void restore(const AdamState& state) {
     if (state.g1.size() != state.g2.size() || state.steps < 0)
