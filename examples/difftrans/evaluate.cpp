@@ -95,19 +95,17 @@ void write_error_map(const EvaluateOptions& o, const io::Mesh& pred, const io::M
 
 // --bands: the chamfer split into slabs of the truth's extent along
 // --band-axis (metrics::chamfer_bands), lowest first, each with its share.
-void write_chamfer_bands(const EvaluateOptions& o, const io::Mesh& pred, const io::Mesh& gt,
-                         const metrics::GeometryOptions& options, io::Json& result) {
-  const int axis = int(o.band_axis[0] - 'x');
+void write_chamfer_bands(const EvaluateOptions& o, const metrics::MatchedPoints& matched, io::Json& result) {
   progress("evaluate: the chamfer in " + std::to_string(o.bands) + " bands along " + o.band_axis);
-  const metrics::ChamferBands b = metrics::chamfer_bands(pred, gt, axis, o.bands, options);
+  const metrics::ChamferBands b = metrics::chamfer_bands(
+      matched, metrics::slabs_over(matched.truth, metrics::axis_index(o.band_axis), o.bands));
   double total = 0.0;
   for (int i = 0; i < o.bands; ++i) total += b.predicted[std::size_t(i)] + b.truth[std::size_t(i)];
   io::Json list = io::Json::array();
-  const double width = (b.to - b.from) / double(o.bands);
   for (int i = 0; i < o.bands; ++i) {
     const double part = b.predicted[std::size_t(i)] + b.truth[std::size_t(i)];
-    list.push_back({{"from", b.from + width * i},
-                    {"to", b.from + width * (i + 1)},
+    list.push_back({{"from", b.slabs.lower(i)},
+                    {"to", b.slabs.upper(i)},
                     {"chamfer", part},
                     {"predicted_to_truth", b.predicted[std::size_t(i)]},
                     {"truth_to_predicted", b.truth[std::size_t(i)]},
@@ -127,7 +125,8 @@ void evaluate_geometry(const EvaluateOptions& o, io::Json& result) {
   options.seed = o.seed;
   options.tau = o.tau;
   progress("evaluate: sampling " + std::to_string(o.samples) + " points per mesh, nearest neighbours");
-  const auto m = metrics::evaluate_geometry(pred, gt, options);
+  const metrics::MatchedPoints matched = metrics::match_samples(pred, gt, options);
+  const metrics::GeometryMetrics m = metrics::compare_matched(matched, options.tau);
   result["chamfer"] = m.chamfer;
   result["f1"] = m.f1;
   result["precision"] = m.precision;
@@ -138,7 +137,7 @@ void evaluate_geometry(const EvaluateOptions& o, io::Json& result) {
   result["seed"] = o.seed;
   result["mesh_warnings"] = warnings;
   if (!o.error_map.empty()) write_error_map(o, pred, gt, options, result);
-  if (o.bands > 0) write_chamfer_bands(o, pred, gt, options, result);
+  if (o.bands > 0) write_chamfer_bands(o, matched, result);
 }
 
 // Ground truth from a scene directory's split: images and masks by frame name.

@@ -1454,22 +1454,18 @@ io::Json movement_group(const metrics::SurfaceMovement& s, const std::function<b
 // the truth, or wander there?
 io::Json movement_by_bands(const MovementOptions& o, const io::Mesh& moved, const io::Mesh& truth,
                            const metrics::SurfaceMovement& s) {
-  const int axis = int(o.band_axis[0] - 'x');
   const io::UnitBoxTransform frame = io::unit_box_transform(truth);
   io::Mesh m = moved, t = truth;
   io::apply_transform(frame, m);
   io::apply_transform(frame, t);
-  float lo = std::numeric_limits<float>::infinity(), hi = -lo;
-  for (const Vec3f& p : t.positions) lo = std::min(lo, p[axis]), hi = std::max(hi, p[axis]);
-  const double width = hi > lo ? double(hi - lo) / double(o.bands) : 1.0;
+  const metrics::Slabs slabs = metrics::slabs_over(t.positions, metrics::axis_index(o.band_axis), o.bands);
   std::vector<int> band(m.positions.size());
-  for (std::size_t v = 0; v < band.size(); ++v)
-    band[v] = int(std::clamp(std::floor((double(m.positions[v][axis]) - lo) / width), 0.0, double(o.bands - 1)));
+  for (std::size_t v = 0; v < band.size(); ++v) band[v] = slabs.of(double(m.positions[v][slabs.axis]));
   io::Json rows = io::Json::array();
   for (int b = 0; b < o.bands; ++b) {
     io::Json row = movement_group(s, [&](std::size_t v) { return band[v] == b; });
-    row["from"] = double(lo) + width * b;
-    row["to"] = double(lo) + width * (b + 1);
+    row["from"] = slabs.lower(b);
+    row["to"] = slabs.upper(b);
     rows.push_back(row);
   }
   return {{"axis", o.band_axis}, {"bands", rows}};

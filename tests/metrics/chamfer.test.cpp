@@ -196,8 +196,8 @@ TEST_CASE("chamfer bands: a flattened base holds the Chamfer distance in the low
   const metrics::ChamferBands y = metrics::chamfer_bands(cut, gt, 1, 5, options);
   REQUIRE(y.predicted.size() == 5);
   REQUIRE(y.truth.size() == 5);
-  CHECK(y.from == doctest::Approx(-0.5).epsilon(1e-3));
-  CHECK(y.to == doctest::Approx(0.5).epsilon(1e-3));
+  CHECK(y.slabs.from == doctest::Approx(-0.5).epsilon(1e-3));
+  CHECK(y.slabs.to == doctest::Approx(0.5).epsilon(1e-3));
   double total = 0.0;
   for (int b = 0; b < 5; ++b) total += y.predicted[std::size_t(b)] + y.truth[std::size_t(b)];
   CHECK(total == doctest::Approx(m.chamfer).epsilon(1e-9));
@@ -223,4 +223,50 @@ TEST_CASE("chamfer bands: a flattened base holds the Chamfer distance in the low
   CHECK(left == doctest::Approx(right).epsilon(0.1));
   CHECK_THROWS_AS(metrics::chamfer_bands(cut, gt, 3, 5, options), std::invalid_argument);
   CHECK_THROWS_AS(metrics::chamfer_bands(cut, gt, 1, 0, options), std::invalid_argument);
+}
+
+TEST_CASE("slabs: equal slabs over an extent, outside coordinates clamped; axes by name") {
+  const std::vector<Vec3d> points = {Vec3d(0.0, -1.0, 5.0), Vec3d(1.0, 3.0, 5.0), Vec3d(2.0, 1.0, 5.0)};
+  const metrics::Slabs s = metrics::slabs_over(points, 1, 4);
+  CHECK(s.from == -1.0);
+  CHECK(s.to == 3.0);
+  CHECK(s.width() == 1.0);
+  CHECK(s.lower(2) == 1.0);
+  CHECK(s.upper(3) == 3.0);
+  CHECK(s.of(-1.0) == 0);
+  CHECK(s.of(0.999) == 1);
+  CHECK(s.of(1.0) == 2);
+  CHECK(s.of(3.0) == 3);    // the top edge belongs to the last slab
+  CHECK(s.of(-7.0) == 0);   // below: the first
+  CHECK(s.of(42.0) == 3);   // above: the last
+  // a flat extent (every point at z = 5): one width, everything in the first slab
+  const metrics::Slabs flat = metrics::slabs_over(points, 2, 3);
+  CHECK(flat.width() == 1.0);
+  CHECK(flat.of(5.0) == 0);
+  CHECK_THROWS_AS(metrics::slabs_over(points, 3, 2), std::invalid_argument);
+  CHECK_THROWS_AS(metrics::slabs_over(points, 0, 0), std::invalid_argument);
+  CHECK(metrics::axis_index("x") == 0);
+  CHECK(metrics::axis_index("z") == 2);
+  CHECK_THROWS_AS(metrics::axis_index("w"), std::invalid_argument);
+  CHECK_THROWS_AS(metrics::axis_index("xy"), std::invalid_argument);
+}
+
+TEST_CASE("match_samples: one search serves the metrics and the bands") {
+  const io::Mesh gt = uv_sphere(1.0, 32, 64, Vec3d(0.0));
+  const io::Mesh pred = uv_sphere(1.05, 32, 64, Vec3d(0.02, 0.0, 0.0));
+  metrics::GeometryOptions options;
+  options.samples = 20000;
+  const metrics::MatchedPoints m = metrics::match_samples(pred, gt, options);
+  REQUIRE(m.predicted.size() == m.predicted_d2.size());
+  REQUIRE(m.truth.size() == m.truth_d2.size());
+  const metrics::GeometryMetrics a = metrics::compare_matched(m, options.tau);
+  const metrics::GeometryMetrics b = metrics::evaluate_geometry(pred, gt, options);
+  CHECK(a.chamfer == b.chamfer);
+  CHECK(a.f1 == b.f1);
+  const metrics::ChamferBands bands = metrics::chamfer_bands(m, metrics::slabs_over(m.truth, 0, 3));
+  double total = 0.0;
+  for (int k = 0; k < 3; ++k) total += bands.predicted[std::size_t(k)] + bands.truth[std::size_t(k)];
+  CHECK(total == doctest::Approx(a.chamfer).epsilon(1e-12));
+  // 5 % larger and shifted by +0.02 in x: 0.07 apart on the +x side, 0.03 on the −x side
+  CHECK(bands.predicted[2] + bands.truth[2] > 2.0 * (bands.predicted[0] + bands.truth[0]));
 }

@@ -11,6 +11,7 @@
 #include <limits>
 #include <random>
 #include <stdexcept>
+#include <string>
 #include <thread>
 #include <utility>
 #include <vector>
@@ -141,30 +142,53 @@ inline std::vector<double> nearest_squared_distances(const std::vector<Vec3d>& q
   return out;
 }
 
+// Two point sets, each point with the squared distance to its nearest
+// point of the other: what the Chamfer distance, the F1 and their split by
+// region (chamfer_bands) are all computed from, so one nearest-neighbour
+// search serves them all.
+struct MatchedPoints {
+  std::vector<Vec3d> predicted, truth;
+  std::vector<double> predicted_d2, truth_d2;  // predicted[i] to the truth's nearest, truth[j] to the prediction's
+};
+
+inline MatchedPoints match_points(std::vector<Vec3d> predicted, std::vector<Vec3d> truth, unsigned threads = 0) {
+  if (predicted.empty() || truth.empty()) throw std::invalid_argument("match_points: empty point set");
+  MatchedPoints m;
+  m.predicted_d2 = nearest_squared_distances(predicted, truth, threads);
+  m.truth_d2 = nearest_squared_distances(truth, predicted, threads);
+  m.predicted = std::move(predicted);
+  m.truth = std::move(truth);
+  return m;
+}
+
+// Chamfer distance, precision, recall and F1 of matched point sets.
+inline GeometryMetrics compare_matched(const MatchedPoints& m, double tau) {
+  if (m.predicted_d2.empty() || m.truth_d2.empty()) throw std::invalid_argument("compare_matched: empty point set");
+  GeometryMetrics out;
+  out.tau = tau;
+  out.samples = m.predicted_d2.size();
+  double sum_p = 0.0, sum_q = 0.0;
+  std::size_t near_p = 0, near_q = 0;
+  for (const double d2 : m.predicted_d2) {
+    sum_p += d2;
+    near_p += d2 < tau * tau;
+  }
+  for (const double d2 : m.truth_d2) {
+    sum_q += d2;
+    near_q += d2 < tau * tau;
+  }
+  out.chamfer = sum_p / double(m.predicted_d2.size()) + sum_q / double(m.truth_d2.size());
+  out.precision = double(near_p) / double(m.predicted_d2.size());
+  out.recall = double(near_q) / double(m.truth_d2.size());
+  out.f1 = out.precision + out.recall > 0.0 ? 2.0 * out.precision * out.recall / (out.precision + out.recall) : 0.0;
+  return out;
+}
+
 // Chamfer distance, precision, recall and F1 of two point sets.
 inline GeometryMetrics compare_point_sets(const std::vector<Vec3d>& predicted, const std::vector<Vec3d>& truth,
                                           double tau, unsigned threads = 0) {
   if (predicted.empty() || truth.empty()) throw std::invalid_argument("compare_point_sets: empty point set");
-  const auto d_pred = nearest_squared_distances(predicted, truth, threads);
-  const auto d_truth = nearest_squared_distances(truth, predicted, threads);
-  GeometryMetrics m;
-  m.tau = tau;
-  m.samples = predicted.size();
-  double sum_p = 0.0, sum_q = 0.0;
-  std::size_t near_p = 0, near_q = 0;
-  for (const double d2 : d_pred) {
-    sum_p += d2;
-    near_p += d2 < tau * tau;
-  }
-  for (const double d2 : d_truth) {
-    sum_q += d2;
-    near_q += d2 < tau * tau;
-  }
-  m.chamfer = sum_p / double(d_pred.size()) + sum_q / double(d_truth.size());
-  m.precision = double(near_p) / double(d_pred.size());
-  m.recall = double(near_q) / double(d_truth.size());
-  m.f1 = m.precision + m.recall > 0.0 ? 2.0 * m.precision * m.recall / (m.precision + m.recall) : 0.0;
-  return m;
+  return compare_matched(match_points(predicted, truth, threads), tau);
 }
 
 // The protocol's geometry metrics of a predicted mesh against the ground truth.
@@ -185,53 +209,86 @@ inline std::pair<io::Mesh, io::Mesh> metric_frame(const io::Mesh& predicted, con
 
 }  // namespace detail
 
+// options.samples area-weighted points of each mesh (in the metrics' frame),
+// matched: the samples behind evaluate_geometry.
+inline MatchedPoints match_samples(const io::Mesh& predicted, const io::Mesh& truth, const GeometryOptions& options = {}) {
+  const auto [p, q] = detail::metric_frame(predicted, truth, options);
+  return match_points(sample_surface(p, options.samples, options.seed), sample_surface(q, options.samples, options.seed),
+                      options.threads);
+}
+
 inline GeometryMetrics evaluate_geometry(const io::Mesh& predicted, const io::Mesh& truth,
                                          const GeometryOptions& options = {}) {
-  const auto [p, q] = detail::metric_frame(predicted, truth, options);
-  const auto points_p = sample_surface(p, options.samples, options.seed);
-  const auto points_q = sample_surface(q, options.samples, options.seed);
-  return compare_point_sets(points_p, points_q, options.tau, options.threads);
+  return compare_matched(match_samples(predicted, truth, options), options.tau);
+}
+
+// `count` equal slabs of an extent along one axis (0 x, 1 y, 2 z); a
+// coordinate outside the extent falls into the first or the last slab.
+struct Slabs {
+  int axis = 1, count = 1;
+  double from = 0.0, to = 0.0;
+  double width() const { return to > from ? (to - from) / double(count) : 1.0; }
+  double lower(int b) const { return from + width() * double(b); }
+  double upper(int b) const { return from + width() * double(b + 1); }
+  int of(double coordinate) const {
+    return int(std::clamp(std::floor((coordinate - from) / width()), 0.0, double(count - 1)));
+  }
+};
+
+// The slabs over the extent of `points` (anything indexed [0..2]) along axis.
+template <class Point>
+Slabs slabs_over(const std::vector<Point>& points, int axis, int count) {
+  if (axis < 0 || axis > 2) throw std::invalid_argument("slabs_over: the axis is 0, 1 or 2");
+  if (count < 1) throw std::invalid_argument("slabs_over: at least one slab");
+  Slabs s;
+  s.axis = axis;
+  s.count = count;
+  s.from = std::numeric_limits<double>::infinity();
+  s.to = -std::numeric_limits<double>::infinity();
+  for (const Point& x : points) s.from = std::min(s.from, double(x[axis])), s.to = std::max(s.to, double(x[axis]));
+  if (points.empty()) s.from = s.to = 0.0;
+  return s;
+}
+
+// An axis by its name: "x", "y" or "z" to 0, 1 or 2.
+inline int axis_index(const std::string& name) {
+  if (name == "x") return 0;
+  if (name == "y") return 1;
+  if (name == "z") return 2;
+  throw std::invalid_argument("axis_index: '" + name + "' is not x, y or z");
 }
 
 // Where the Chamfer distance lies along one axis of the metrics' frame: the
-// truth's extent along `axis` (0 x, 1 y, 2 z) cut into `bands` equal slabs,
-// each sample point of either mesh counted in the slab of its coordinate
-// (clamped into the first or the last). The same samples as
-// evaluate_geometry, so predicted[b] + truth[b] summed over the bands is its
-// chamfer: a concavity the silhouettes cannot show, or a part a stage leaves
-// alone, shows as the bands that hold most of it.
+// truth's extent along the axis cut into equal slabs, each sample point of
+// either mesh counted in the slab of its coordinate. Made from the matched
+// samples of evaluate_geometry, so predicted[b] + truth[b] summed over the
+// slabs is its chamfer: a concavity the silhouettes cannot show, or a part a
+// stage leaves alone, shows as the slabs that hold most of it.
 struct ChamferBands {
-  int axis = 1;
-  double from = 0.0, to = 0.0;          // the slabs' extent along the axis
-  std::vector<double> predicted, truth;  // band b's part of mean_P d^2 and of mean_Q d^2
+  Slabs slabs;
+  std::vector<double> predicted, truth;  // slab b's part of mean_P d^2 and of mean_Q d^2
 };
 
+inline ChamferBands chamfer_bands(const MatchedPoints& m, const Slabs& slabs) {
+  ChamferBands out;
+  out.slabs = slabs;
+  const auto accumulate = [&](const std::vector<Vec3d>& points, const std::vector<double>& d2, std::vector<double>& sums) {
+    sums.assign(std::size_t(slabs.count), 0.0);
+    for (std::size_t i = 0; i < d2.size(); ++i) sums[std::size_t(slabs.of(points[i][slabs.axis]))] += d2[i];
+    for (double& s : sums) s /= double(std::max<std::size_t>(1, d2.size()));
+  };
+  accumulate(m.predicted, m.predicted_d2, out.predicted);
+  accumulate(m.truth, m.truth_d2, out.truth);
+  return out;
+}
+
+// The same from two meshes: their samples matched, slabs over the truth's samples.
 inline ChamferBands chamfer_bands(const io::Mesh& predicted, const io::Mesh& truth, int axis, int bands,
                                   const GeometryOptions& options = {}) {
   if (axis < 0 || axis > 2) throw std::invalid_argument("chamfer_bands: the axis is 0, 1 or 2");
   if (bands < 1) throw std::invalid_argument("chamfer_bands: at least one band");
-  const auto [p, q] = detail::metric_frame(predicted, truth, options);
-  const auto points_p = sample_surface(p, options.samples, options.seed);
-  const auto points_q = sample_surface(q, options.samples, options.seed);
-  ChamferBands out;
-  out.axis = axis;
-  out.from = std::numeric_limits<double>::infinity();
-  out.to = -std::numeric_limits<double>::infinity();
-  for (const Vec3d& x : points_q) out.from = std::min(out.from, x[axis]), out.to = std::max(out.to, x[axis]);
-  const double width = out.to > out.from ? (out.to - out.from) / double(bands) : 1.0;
-  const auto band = [&](const Vec3d& x) {
-    const double t = std::floor((x[axis] - out.from) / width);
-    return std::size_t(std::clamp(t, 0.0, double(bands - 1)));
-  };
-  const auto accumulate = [&](const std::vector<Vec3d>& from, const std::vector<Vec3d>& to, std::vector<double>& sums) {
-    sums.assign(std::size_t(bands), 0.0);
-    const std::vector<double> d = nearest_squared_distances(from, to, options.threads);
-    for (std::size_t i = 0; i < d.size(); ++i) sums[band(from[i])] += d[i];
-    for (double& s : sums) s /= double(d.size());
-  };
-  accumulate(points_p, points_q, out.predicted);
-  accumulate(points_q, points_p, out.truth);
-  return out;
+  const MatchedPoints m = match_samples(predicted, truth, options);
+  return chamfer_bands(m, slabs_over(m.truth, axis, bands));
 }
 
 // An error map: the distance from each vertex of `predicted` to the truth's
