@@ -165,6 +165,12 @@ struct Stage2Config {
   // sharpest map and at the noisiest gradient, do not leave a random walk's
   // roughness on the surface.
   float vertex_anneal_floor = 1.0f;
+  // The vertices' result: the mean of their positions over the last
+  // vertex_average steps of the geometry phase (0: the last step's). At the
+  // rate the noise allows, the steps end in a random walk about where the
+  // gradient's mean holds them; the mean of the walk lies nearer that place
+  // than any one step of it (Polyak–Ruppert averaging).
+  int vertex_average = 0;
   float lr_decay = 2e-4f;
   // Convergence: over the last anneal_fraction of the iterations (never
   // before the vertices stop) the IoR and absorption rates fall along a
@@ -483,6 +489,11 @@ struct Stage2Config {
     v(Field{"vertex_anneal_floor", "--materials-vertex-anneal",
             "the vertex rate falls along a cosine to this fraction over the geometry phase (1: constant)", 0, 1},
       c.vertex_anneal_floor);
+    v(Field{"vertex_average", "--materials-vertex-average",
+            "the vertices end at the mean of their positions over the last N steps of the geometry phase (0: the "
+            "last step's)",
+            0, 1e6},
+      c.vertex_average);
     v(Field{"lr_decay", "", "d in lr 10^(-d i)"}, c.lr_decay);
     v(Field{"anneal_fraction", "", "final fraction of the iterations over which the material rates fall (cosine)"},
       c.anneal_fraction);
@@ -1126,6 +1137,14 @@ class Stage2 {
       st.vertex_agreement = moments.agreement;
       st.vertex_peak = moments.peak;
       level_moments_.add(st);
+      const int last = std::min(geometry_end(), config_.iterations);  // the vertex phase ends before iteration `last`
+      if (it >= last - config_.vertex_average) {
+        if (average_positions_.size() != scene_.mesh.positions.size())
+          average_positions_.assign(scene_.mesh.positions.size(), 0.0);
+        for (std::size_t k = 0; k < average_positions_.size(); ++k) average_positions_[k] += scene_.mesh.positions[k];
+        ++average_steps_;
+        if (it + 1 == last) finish_average();
+      }
     }
     if (sky_moving) {
       // d loss / d log(factor): the unseen texels' gradients times their values
@@ -1154,7 +1173,7 @@ class Stage2 {
   // worker, a resumed fit repeats the uninterrupted one bit for bit (the
   // batches are drawn from the seed and the iteration).
   void save(const std::filesystem::path& path, const std::string& run) const {
-    io::CheckpointWriter f(path, "DTS2CK04");
+    io::CheckpointWriter f(path, "DTS2CK05");
     f.text(run);
     f.value(std::int32_t(iteration_));
     f.value(scene_.ior);
@@ -1187,13 +1206,18 @@ class Stage2 {
     f.value(std::int32_t(best_iteration_));
     f.value(std::int32_t(stopped_at_));
     f.text(vertex_levels_.dump());
+    // vertex_average's sum and the level's moments so far
+    f.array(average_positions_);
+    f.value(std::int32_t(average_steps_));
+    f.value(std::int32_t(level_moments_.steps));
+    f.array(std::vector<double>{level_moments_.scale, level_moments_.agreement, level_moments_.peak});
     f.commit();
   }
 
   // Resumes from save()'s file; false, changing nothing, when the file is
   // absent, damaged, of another run or of another mesh or grid size.
   bool load(const std::filesystem::path& path, const std::string& run) {
-    io::CheckpointReader f(path, "DTS2CK04");
+    io::CheckpointReader f(path, "DTS2CK05");
     std::string saved_run;
     if (!f.text(saved_run, 1u << 20) || saved_run != run) return false;
     std::int32_t it = 0;
@@ -1256,6 +1280,15 @@ class Stage2 {
     f.value(best_iteration);
     f.value(stopped_at);
     f.text(levels_text, 1u << 24);
+    std::vector<double> average_positions, moments;
+    std::int32_t average_steps = 0, moment_steps = 0;
+    f.array(average_positions, np);
+    f.value(average_steps);
+    f.value(moment_steps);
+    f.array(moments, 3);
+    if (average_steps < 0 || (average_steps > 0 && average_positions.size() != np) || moment_steps < 0 ||
+        moments.size() != 3)
+      return false;
     const io::Json levels = io::Json::parse(levels_text, nullptr, false);
     if (levels.is_discarded() || !levels.is_array() || (!best_positions.empty() && best_positions.size() != np) ||
         stopped_at > it)
@@ -1313,6 +1346,10 @@ class Stage2 {
     best_iteration_ = best_iteration;
     stopped_at_ = stopped_at;
     vertex_levels_ = levels;
+    average_positions_ = std::move(average_positions);
+    average_steps_ = average_steps;
+    level_moments_.steps = moment_steps;
+    level_moments_.scale = moments[0], level_moments_.agreement = moments[1], level_moments_.peak = moments[2];
     iteration_ = it;
     return true;
   }
@@ -2110,6 +2147,8 @@ class Stage2 {
         scene_.mesh.positions = best_positions_;
         scene_.positions_changed();
         stopped_at_ = it;
+        average_positions_.clear();
+        average_steps_ = 0;
         r["decision"] = "back to iteration " + std::to_string(best_iteration_) +
                         (last ? ", the end of the vertex phase" : ", the vertices stop");
         vertex_levels_.push_back(std::move(r));
@@ -2124,6 +2163,16 @@ class Stage2 {
       best_iteration_ = it;
     }
     vertex_levels_.push_back(std::move(r));
+  }
+
+  // The end of the vertex phase with Stage2Config::vertex_average: the
+  // vertices take the mean of their last steps' positions.
+  void finish_average() {
+    for (std::size_t k = 0; k < average_positions_.size(); ++k)
+      scene_.mesh.positions[k] = float(average_positions_[k] / double(average_steps_));
+    scene_.positions_changed();
+    average_positions_.clear();
+    average_steps_ = 0;
   }
 
   // Large steps' λ at iteration it of the geometry phase (clamped to it):
@@ -2190,6 +2239,9 @@ class Stage2 {
   std::vector<double> best_batches_;
   int best_iteration_ = -1, stopped_at_ = -1;
   io::Json vertex_levels_ = io::Json::array();
+  // Stage2Config::vertex_average: the positions of the phase's last steps, summed
+  std::vector<double> average_positions_;
+  int average_steps_ = 0;
   // the vertex steps' Stage2Stats::vertex_* summed since the last level check
   struct LevelMoments {
     int steps = 0;

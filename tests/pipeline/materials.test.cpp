@@ -373,6 +373,33 @@ TEST_CASE("stage 2 with geometry: a dented sphere moves towards the truth") {
     CHECK(after < 0.3 * before);
     CHECK(dg::mesh_genus(s.mesh.triangles, s.mesh.num_vertices()).closed);
   }
+  SUBCASE("vertex_average: the vertices end at the mean of their last steps' positions") {
+    // the same fit twice (one worker: bit for bit the same steps): without
+    // the average, summing the positions after each of the last 30 steps
+    // (iterations 90 .. 119); with it, whose result must be their mean
+    dr::HostScene plain = dented(), averaged = dented();
+    std::vector<double> sum(plain.mesh.positions.size(), 0.0);
+    pipeline::Stage2 a(plain, views_of(photos), mask_views_of(photos), cfg);
+    while (!a.done()) {
+      const pipeline::Stage2Stats x = a.step();
+      if (x.iteration >= cfg.iterations - 30)
+        for (std::size_t k = 0; k < sum.size(); ++k) sum[k] += plain.mesh.positions[k];
+    }
+    pipeline::Stage2Config c = cfg;
+    c.vertex_average = 30;
+    pipeline::Stage2 b(averaged, views_of(photos), mask_views_of(photos), c);
+    while (!b.done()) b.step();
+    double off = 0.0, from_last = 0.0;
+    for (std::size_t k = 0; k < sum.size(); ++k) {
+      off = std::max(off, std::abs(double(averaged.mesh.positions[k]) - sum[k] / 30.0));
+      from_last = std::max(from_last, std::abs(double(averaged.mesh.positions[k]) - double(plain.mesh.positions[k])));
+    }
+    MESSAGE("mean |r - 0.4| " << before << " -> " << radius_error(plain) << " (last step), " << radius_error(averaged)
+                              << " (mean of the last 30)");
+    CHECK(off < 1e-6);
+    CHECK(from_last > 1e-5);  // the steps did differ: the mean is not the last step
+    CHECK(radius_error(averaged) < 0.3 * before);
+  }
   SUBCASE("large steps' lambda from coarse to fine (19 -> 4.4 -> 1 over the 100 moving iterations)") {
     dr::HostScene s = dented();
     pipeline::Stage2Config c = cfg;
@@ -650,6 +677,7 @@ TEST_CASE("stage 2 checkpoint: a resumed fit repeats the uninterrupted one, and 
   cfg.blur_halving = 3;
   cfg.lambda_final = 1.0;
   cfg.optimize_positions = true;
+  cfg.vertex_average = 5;  // iterations 9 .. 13 averaged: the stop at 10 lands inside, the sum goes through the file
   cfg.lr_ior = 1e-3f;
   cfg.rays_per_iteration = 256;
   cfg.absorption_res = 3;
@@ -700,6 +728,8 @@ TEST_CASE("stage 2 checkpoint: a resumed fit repeats the uninterrupted one, and 
     CHECK(c.mesh.positions == a.mesh.positions);
     CHECK(c.mesh.positions != fresh().mesh.positions);  // the vertices did move
     CHECK(second.history().back().color == straight.history().back().color);
+    // the level checks' records, their step moments included (a level's sum goes through the file)
+    CHECK(second.vertex_levels() == straight.vertex_levels());
     CHECK(c.absorption_kind == a.absorption_kind);
     if (!grid) {
       REQUIRE(second.absorption_choice().is_object());
