@@ -796,6 +796,8 @@ struct HomeOptions {
   std::string targets = "photo";         // photo | ray
   int noise_blur_index = 0;              // the blur whose gradient noise is split by class
   fs::path write_projected;              // the mesh moved onto the true surface (x + Δ), as OBJ
+  int bands = 0;                         // > 0: the mean gradients against Δ slab by slab along band_axis
+  std::string band_axis = "y";
 };
 
 // Running statistics of one gradient component over the batches.
@@ -838,6 +840,31 @@ std::vector<double> preconditioned(const optim::LargeSteps& m, const std::vector
   return std::vector<double>(twice.begin(), twice.end());
 }
 
+// The batches' mean gradient against Δ within each slab of the truth's
+// extent along an axis (the vertices by their position in the truth's unit
+// box, as `movement --bands`): does the gradient point home in the part that
+// holds the error, and how much of the step falls there?
+io::Json home_by_bands(const std::vector<int>& band, int bands, const std::vector<double>& sum,
+                       const std::vector<double>& delta) {
+  io::Json rows = io::Json::array();
+  double all_g = 0.0, all_d = 0.0;
+  for (std::size_t k = 0; k < sum.size(); ++k) all_g += sum[k] * sum[k], all_d += delta[k] * delta[k];
+  for (int b = 0; b < bands; ++b) {
+    double gd = 0.0, gg = 0.0, dd = 0.0;
+    int vertices = 0;
+    for (std::size_t v = 0; v < band.size(); ++v) {
+      if (band[v] != b) continue;
+      ++vertices;
+      for (std::size_t c = 3 * v; c < 3 * v + 3; ++c) gd += sum[c] * delta[c], gg += sum[c] * sum[c], dd += delta[c] * delta[c];
+    }
+    rows.push_back({{"vertices", vertices},
+                    {"cos_minus_mean_grad_delta", gg > 0.0 && dd > 0.0 ? -gd / std::sqrt(gg * dd) : 0.0},
+                    {"share_of_step", all_g > 0.0 ? gg / all_g : 0.0},     // of |mean gradient|²
+                    {"share_of_delta", all_d > 0.0 ? dd / all_d : 0.0}});  // of |Δ|²
+  }
+  return rows;
+}
+
 io::Json home(Setup& setup, const HomeOptions& o) {
   HostScene& s = setup.scene();
   HostScene truth = true_scene(setup, o.gt_mesh);
@@ -876,6 +903,19 @@ io::Json home(Setup& setup, const HomeOptions& o) {
   out["targets"] = o.targets;
   out["lambda"] = lambda;
   out["blurs"] = io::Json::array();
+  // --bands: each vertex's slab (in the truth's unit box)
+  std::vector<int> band;
+  metrics::Slabs slabs;
+  if (o.bands > 0) {
+    const io::Mesh t = cli::to_io_mesh(truth.mesh.positions, truth.mesh.triangles);
+    const io::UnitBoxTransform frame = io::unit_box_transform(t);
+    io::Mesh m = cli::to_io_mesh(x0, s.mesh.triangles), tu = t;
+    io::apply_transform(frame, m);
+    io::apply_transform(frame, tu);
+    slabs = metrics::slabs_over(tu.positions, metrics::axis_index(o.band_axis), o.bands);
+    band.resize(m.positions.size());
+    for (std::size_t v = 0; v < band.size(); ++v) band[v] = slabs.of(double(m.positions[v][slabs.axis]));
+  }
   const pipeline::Stage2& stage = setup.stage();
   TraceSettings reference = render::reference_pass_options().trace;
 
@@ -993,6 +1033,11 @@ io::Json home(Setup& setup, const HomeOptions& o) {
     cj["clipped_preconditioned"] = comp_pre[1].json(delta_unit);
     for (std::size_t c = 2; c < comp_pre.size(); ++c) cj[names[c] + "_preconditioned"] = comp_pre[c].json(delta_unit);
     bj["gradient"] = cj;
+    if (o.bands > 0) {
+      io::Json rows = home_by_bands(band, o.bands, comp_pre[1].sum, delta);  // clipped, preconditioned: the step
+      for (int b = 0; b < o.bands; ++b) rows[std::size_t(b)]["from"] = slabs.lower(b), rows[std::size_t(b)]["to"] = slabs.upper(b);
+      bj["clipped_preconditioned_by_bands"] = {{"axis", o.band_axis}, {"bands", rows}};
+    }
     if (split) bj["brightness_tertiles"] = {t1, t2};
     // the deterministic loss along x + tΔ over loss_batches fixed batches, and at the true mesh
     const auto mean_loss = [&](const HostScene& scene) {
@@ -1629,6 +1674,10 @@ int main(int argc, char** argv) {
   h->add_option("--noise-blur", ho.noise_blur_index, "Index into --blurs whose gradient noise is split by class (-1: none)")
       ->capture_default_str();
   h->add_option("--write-projected", ho.write_projected, "Write the mesh moved to the true surface (x + Δ) as OBJ");
+  h->add_option("--bands", ho.bands, "The mean clipped, preconditioned gradient against Δ in this many equal slabs of "
+                                     "the truth's extent along --band-axis (0: none)")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
+  h->add_option("--band-axis", ho.band_axis, "Axis of --bands")->capture_default_str()->check(CLI::IsMember({"x", "y", "z"}));
 
   CLI::App* r = app.add_subcommand("ior", "Where is the loss lowest in the IoR (and a grey absorption)?");
   add_common(r, common);
