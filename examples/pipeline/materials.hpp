@@ -106,6 +106,10 @@ struct Stage2Weights {
 struct Stage2Config {
   int iterations = 1200;
   int rays_per_iteration = 8192;  // rays per iteration: rays_per_iteration / pixel_samples random object pixels
+  // Rays per iteration while the vertices move (0: rays_per_iteration): a
+  // larger vertex step needs more rays to keep its noise down, and the
+  // materials' iterations need not pay for them.
+  int vertex_rays = 0;
   // Rays per training pixel, stratified (n × n when a square) and compared
   // with the photograph through pixel_loss. One jittered ray against the
   // pixel (the mean over its footprint) adds the ray's variance inside the
@@ -446,6 +450,9 @@ struct Stage2Config {
     v(Field{"iterations", "--materials-iterations", "iterations", 0, big}, c.iterations);
     v(Field{"rays_per_iteration", "--materials-rays", "training rays (object pixels) per iteration", 1, big},
       c.rays_per_iteration);
+    v(Field{"vertex_rays", "--materials-vertex-rays",
+            "training rays per iteration while the vertices move (0: --materials-rays)", 0, big},
+      c.vertex_rays);
     v(Field{"views_per_iteration", "", "training views per iteration"}, c.views_per_iteration);
     v(Field{"pixel_samples", "--materials-pixel-samples", "rays per training pixel (stratified)", 1, 64},
       c.pixel_samples);
@@ -780,7 +787,8 @@ class Stage2 {
   // and target) by one of its four neighbours (neighbour_distance pixels
   // away) inside the image, at random.
   void draw_batch(std::mt19937_64& rng, std::vector<BatchRay>& rays, std::vector<Vec3f>& target,
-                  bool neighbours = false) const {
+                  bool neighbours = false, int ray_count = 0) const {
+    if (ray_count <= 0) ray_count = config_.rays_per_iteration;
     std::vector<int> order(views_.size());
     std::iota(order.begin(), order.end(), 0);
     if (batch_views_) order = *batch_views_;  // while the absorption model is chosen: a part of the views
@@ -792,7 +800,7 @@ class Stage2 {
     int n = int(std::lround(std::sqrt(double(k))));
     if (n * n != k) n = 0;  // not a square: uniform jitter
     const int group = neighbours ? 2 : 1;
-    const int per_view = std::max(1, config_.rays_per_iteration / (k * group * int(order.size())));
+    const int per_view = std::max(1, ray_count / (k * group * int(order.size())));
     std::uniform_real_distribution<float> unit(0.0f, 1.0f);
     std::uniform_int_distribution<int> side(0, 3);
     for (int v : order) {
@@ -1042,7 +1050,7 @@ class Stage2 {
     std::vector<BatchRay> rays;
     std::vector<Vec3f> target;
     const bool neighbours = st.geometry_moving && config_.geometry_neighbours;
-    draw_batch(rng, rays, target, neighbours);
+    draw_batch(rng, rays, target, neighbours, st.geometry_moving ? config_.vertex_rays : 0);
     const float glint = glint_level(target, config_.glint_factor);
     const std::size_t groups = neighbours ? target.size() / 2 : target.size();
 

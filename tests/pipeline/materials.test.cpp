@@ -373,6 +373,21 @@ TEST_CASE("stage 2 with geometry: a dented sphere moves towards the truth") {
     CHECK(after < 0.3 * before);
     CHECK(dg::mesh_genus(s.mesh.triangles, s.mesh.num_vertices()).closed);
   }
+  SUBCASE("vertex_rays: the batch while the vertices move has its own ray count") {
+    dr::HostScene s = dented();
+    pipeline::Stage2Config c = cfg;
+    c.iterations = 24;
+    c.vertex_rays = 512;
+    pipeline::Stage2 st(s, views_of(photos), mask_views_of(photos), c);
+    while (!st.done()) {
+      const pipeline::Stage2Stats x = st.step();
+      CAPTURE(x.iteration);
+      // every drawn pixel's ray (one sample per pixel here), give or take a view's rounding
+      const std::int64_t expected = x.geometry_moving ? 512 : 1024;
+      CHECK(x.rays <= expected);
+      CHECK(x.rays > expected * 9 / 10);
+    }
+  }
   SUBCASE("vertex_average: the vertices end at the mean of their last steps' positions") {
     // the same fit twice (one worker: bit for bit the same steps): without
     // the average, summing the positions after each of the last 30 steps
