@@ -840,6 +840,25 @@ std::vector<double> preconditioned(const optim::LargeSteps& m, const std::vector
   return std::vector<double>(twice.begin(), twice.end());
 }
 
+// Each vertex of `mesh` by its slab: `count` equal slabs of the truth's
+// extent along the named axis, both in the truth's unit box (the frame of
+// evaluate --bands), shared by `home --bands` and `movement --bands`.
+struct VertexSlabs {
+  metrics::Slabs slabs;
+  std::vector<int> of_vertex;
+};
+VertexSlabs vertex_slabs(const io::Mesh& mesh, const io::Mesh& truth, const std::string& axis, int count) {
+  const io::UnitBoxTransform frame = io::unit_box_transform(truth);
+  io::Mesh m = mesh, t = truth;
+  io::apply_transform(frame, m);
+  io::apply_transform(frame, t);
+  VertexSlabs out{metrics::slabs_over(t.positions, metrics::axis_index(axis), count), {}};
+  out.of_vertex.resize(m.positions.size());
+  for (std::size_t v = 0; v < m.positions.size(); ++v)
+    out.of_vertex[v] = out.slabs.of(double(m.positions[v][out.slabs.axis]));
+  return out;
+}
+
 // The batches' mean gradient against Δ within each slab of the truth's
 // extent along an axis (the vertices by their position in the truth's unit
 // box, as `movement --bands`): does the gradient point home in the part that
@@ -904,18 +923,10 @@ io::Json home(Setup& setup, const HomeOptions& o) {
   out["lambda"] = lambda;
   out["blurs"] = io::Json::array();
   // --bands: each vertex's slab (in the truth's unit box)
-  std::vector<int> band;
-  metrics::Slabs slabs;
-  if (o.bands > 0) {
-    const io::Mesh t = cli::to_io_mesh(truth.mesh.positions, truth.mesh.triangles);
-    const io::UnitBoxTransform frame = io::unit_box_transform(t);
-    io::Mesh m = cli::to_io_mesh(x0, s.mesh.triangles), tu = t;
-    io::apply_transform(frame, m);
-    io::apply_transform(frame, tu);
-    slabs = metrics::slabs_over(tu.positions, metrics::axis_index(o.band_axis), o.bands);
-    band.resize(m.positions.size());
-    for (std::size_t v = 0; v < band.size(); ++v) band[v] = slabs.of(double(m.positions[v][slabs.axis]));
-  }
+  const VertexSlabs bands = o.bands > 0 ? vertex_slabs(cli::to_io_mesh(x0, s.mesh.triangles),
+                                                       cli::to_io_mesh(truth.mesh.positions, truth.mesh.triangles),
+                                                       o.band_axis, o.bands)
+                                        : VertexSlabs{};
   const pipeline::Stage2& stage = setup.stage();
   TraceSettings reference = render::reference_pass_options().trace;
 
@@ -1034,8 +1045,9 @@ io::Json home(Setup& setup, const HomeOptions& o) {
     for (std::size_t c = 2; c < comp_pre.size(); ++c) cj[names[c] + "_preconditioned"] = comp_pre[c].json(delta_unit);
     bj["gradient"] = cj;
     if (o.bands > 0) {
-      io::Json rows = home_by_bands(band, o.bands, comp_pre[1].sum, delta);  // clipped, preconditioned: the step
-      for (int b = 0; b < o.bands; ++b) rows[std::size_t(b)]["from"] = slabs.lower(b), rows[std::size_t(b)]["to"] = slabs.upper(b);
+      io::Json rows = home_by_bands(bands.of_vertex, o.bands, comp_pre[1].sum, delta);  // clipped, preconditioned: the step
+      for (int b = 0; b < o.bands; ++b)
+        rows[std::size_t(b)]["from"] = bands.slabs.lower(b), rows[std::size_t(b)]["to"] = bands.slabs.upper(b);
       bj["clipped_preconditioned_by_bands"] = {{"axis", o.band_axis}, {"bands", rows}};
     }
     if (split) bj["brightness_tertiles"] = {t1, t2};
@@ -1499,18 +1511,12 @@ io::Json movement_group(const metrics::SurfaceMovement& s, const std::function<b
 // the truth, or wander there?
 io::Json movement_by_bands(const MovementOptions& o, const io::Mesh& moved, const io::Mesh& truth,
                            const metrics::SurfaceMovement& s) {
-  const io::UnitBoxTransform frame = io::unit_box_transform(truth);
-  io::Mesh m = moved, t = truth;
-  io::apply_transform(frame, m);
-  io::apply_transform(frame, t);
-  const metrics::Slabs slabs = metrics::slabs_over(t.positions, metrics::axis_index(o.band_axis), o.bands);
-  std::vector<int> band(m.positions.size());
-  for (std::size_t v = 0; v < band.size(); ++v) band[v] = slabs.of(double(m.positions[v][slabs.axis]));
+  const VertexSlabs bands = vertex_slabs(moved, truth, o.band_axis, o.bands);
   io::Json rows = io::Json::array();
   for (int b = 0; b < o.bands; ++b) {
-    io::Json row = movement_group(s, [&](std::size_t v) { return band[v] == b; });
-    row["from"] = slabs.lower(b);
-    row["to"] = slabs.upper(b);
+    io::Json row = movement_group(s, [&](std::size_t v) { return bands.of_vertex[v] == b; });
+    row["from"] = bands.slabs.lower(b);
+    row["to"] = bands.slabs.upper(b);
     rows.push_back(row);
   }
   return {{"axis", o.band_axis}, {"bands", rows}};
