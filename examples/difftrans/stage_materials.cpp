@@ -156,6 +156,32 @@ std::string absorption_error_text(const io::Json& e) {
   return text;
 }
 
+// Stage2::settle_ior's result: its record in reconstruct.json, and its log
+// line (`from`: where its start came from).
+io::Json settle_record(const pipeline::Stage2::IorSettle& settle) {
+  io::Json ev = io::Json::array();
+  for (const auto& e : settle.evaluations)
+    ev.push_back({{"ior", e.ior}, {"mean_gradient", e.mean_gradient}, {"standard_error", e.standard_error}});
+  io::Json r = {{"start", settle.start},
+                {"ior", settle.ior},
+                {"settled", settle.settled},
+                {"slope", settle.slope},
+                {"slope_standard_error", settle.slope_standard_error},
+                {"evaluations", ev}};
+  if (std::isfinite(settle.standard_error)) r["ior_standard_error"] = settle.standard_error;
+  return r;
+}
+std::string settle_text(const pipeline::Stage2::IorSettle& settle, const std::string& from, int batches) {
+  return "IoR " + fixed(settle.start, 4) + " (" + from + ") " +
+         (settle.settled ? "settled at " + fixed(settle.ior, 4) + " ± " + fixed(settle.standard_error, 4) +
+                               ", the zero of the IoR gradient's line over " + std::to_string(batches) +
+                               " fixed batches"
+                         : std::string(std::isfinite(settle.standard_error)
+                                           ? "moved to the edge of the last IoRs tried: " + fixed(settle.ior, 4)
+                                           : "kept: the IoR gradient shows no significant slope")) +
+         " (" + std::to_string(settle.evaluations.size()) + " IoRs evaluated)";
+}
+
 // render::ray_group_gradient's meaning, traced by `gpu` (Stage2::set_batch_gradient).
 // A group whose gradient the GPU could not hold on its longest tape counts
 // as overflowed, as on the host.
@@ -244,6 +270,7 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
     cfg.box_lo = lo - pad;
     cfg.box_hi = hi + pad;
   }
+  cfg.iterations = cfg.total_iterations();
   pipeline::write_fields(cfg, j["settings"]);
   j["training_views"] = views.size();
 
@@ -309,7 +336,13 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
       // the vertices about to move: the stage-1 mesh under the materials fitted so far
       if (cfg.optimize_positions && stage.iteration() == cfg.freeze_geometry)
         levels.record(to_io_mesh(s.mesh.positions, s.mesh.triangles), cfg.freeze_geometry, "stage 1");
+      const bool settle_shown = stage.vertex_start_settle().has_value();
       const pipeline::Stage2Stats st = stage.step();
+      if (!settle_shown && stage.vertex_start_settle())
+        progress("materials: before the vertices move, " +
+                 settle_text(*stage.vertex_start_settle(), "the mean of the last " +
+                                                               std::to_string(cfg.ior_settle_window) + " iterations",
+                             cfg.ior_settle_batches));
       // Stage2Config::level_loss_batches / keep_best_level: what the loss said
       for (; levels_shown < stage.vertex_levels().size(); ++levels_shown) {
         const io::Json& r = stage.vertex_levels()[levels_shown];
@@ -387,23 +420,11 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
   const pipeline::Stage2::IorSettle settle = stage.settle_ior();
   j["ior_averaged"] = settle.start;
   if (!settle.evaluations.empty()) {
-    io::Json ev = io::Json::array();
-    for (const auto& e : settle.evaluations) ev.push_back({{"ior", e.ior}, {"mean_gradient", e.mean_gradient},
-                                                           {"standard_error", e.standard_error}});
-    j["ior_settle"] = {{"settled", settle.settled},
-                       {"slope", settle.slope},
-                       {"slope_standard_error", settle.slope_standard_error},
-                       {"evaluations", ev}};
-    if (std::isfinite(settle.standard_error)) j["ior_settle"]["ior_standard_error"] = settle.standard_error;
-    progress("materials: IoR " + fixed(settle.start, 4) + " (the mean of the last iterations) " +
-             (settle.settled ? "settled at " + fixed(settle.ior, 4) + " ± " + fixed(settle.standard_error, 4) +
-                                   ", the zero of the IoR gradient's line over " +
-                                   std::to_string(cfg.ior_settle_batches) + " fixed batches"
-                             : std::string(std::isfinite(settle.standard_error)
-                                               ? "moved to the edge of the last IoRs tried: " + fixed(settle.ior, 4)
-                                               : "kept: the IoR gradient shows no significant slope")) +
-             " (" + std::to_string(settle.evaluations.size()) + " IoRs evaluated)");
+    j["ior_settle"] = settle_record(settle);
+    progress("materials: " + settle_text(settle, "the mean of the last iterations", cfg.ior_settle_batches));
   }
+  if (const auto& before = stage.vertex_start_settle(); before && !before->evaluations.empty())
+    j["ior_settle_before_vertices"] = settle_record(*before);
   s.ior = settle.ior;
   j["ior"] = s.ior;
   const Vec3f ms = stage.mean_sigma();

@@ -64,6 +64,19 @@ dr::HostScene dented_sphere() {
 
 }  // namespace
 
+TEST_CASE("Stage2Config::total_iterations: the materials alone, the vertices' phase and its settling, or as given") {
+  pipeline::Stage2Config cfg;
+  CHECK(cfg.total_iterations() == pipeline::Stage2Config::materials_iterations);
+  cfg.optimize_positions = true;
+  cfg.freeze_geometry = 40;
+  cfg.geometry_iterations = 70;
+  CHECK(cfg.total_iterations() == 40 + 70 + pipeline::Stage2Config::settle_iterations);
+  cfg.iterations = 0;
+  CHECK(cfg.total_iterations() == 0);
+  cfg.iterations = 12;
+  CHECK(cfg.total_iterations() == 12);
+}
+
 TEST_CASE("absorption regularizers: values and gradients against finite differences") {
   const difftrans::Vec3i res(3, 2, 2);
   std::vector<float> raw(3 * 12);
@@ -193,6 +206,52 @@ TEST_CASE("stage 2 settles the IoR at the zero of the IoR gradient's line over f
     s.set_homogeneous_absorption(sigma_true);
     CHECK(again.settle_ior().ior == r.ior);
   }
+}
+
+TEST_CASE("settle_before_vertices: the IoR settles once, before the first vertex step, and holds while they move") {
+  // A clear sphere whose IoR starts 0.04 high and barely moves in the
+  // freeze (its slow rate); the settle at the first vertex step starts from
+  // the mean IoR of the last ior_settle_window iterations.
+  const dr::HostScene truth = glass_sphere(1.45f, Vec3f(0.0f));
+  const Photos photos = photograph(truth, 8, 32);
+  pipeline::Stage2Config cfg = clear_vertex_config();
+  cfg.rays_per_iteration = 2048;
+  cfg.ior_init = 1.49f;
+  cfg.freeze_geometry = 6;
+  cfg.ior_warmup = 6;
+  cfg.iterations = 9;
+  cfg.ior_settle_batches = 64;
+  cfg.ior_settle_window = 4;
+  cfg.settle_before_vertices = true;
+  dr::HostScene s = glass_sphere(1.49f, Vec3f(0.0f));
+  pipeline::Stage2 st(s, views_of(photos), mask_views_of(photos), cfg);
+  std::vector<pipeline::Stage2Stats> runs;
+  while (st.iteration() < cfg.freeze_geometry) {
+    runs.push_back(st.step());
+    CHECK_FALSE(st.vertex_start_settle().has_value());
+  }
+  float recent = 0.0f;
+  for (std::size_t i = runs.size() - 4; i < runs.size(); ++i) recent += runs[i].ior / 4.0f;
+  const pipeline::Stage2Stats first = st.step();
+  REQUIRE(first.geometry_moving);
+  REQUIRE(st.vertex_start_settle().has_value());
+  const pipeline::Stage2::IorSettle r = *st.vertex_start_settle();
+  MESSAGE("before the vertices: " << r.start << " -> " << r.ior << " +- " << r.standard_error << " (true 1.45), "
+                                  << r.evaluations.size() << " IoRs evaluated");
+  CHECK(r.start == doctest::Approx(recent).epsilon(1e-6));
+  CHECK(std::abs(r.start - 1.49f) < 0.005f);
+  REQUIRE(r.settled);
+  CHECK(std::abs(r.ior - 1.45f) < 0.015f);
+  CHECK(first.ior == r.ior);  // the vertex steps see the settled IoR, held
+  while (!st.done()) CHECK(st.step().ior == r.ior);
+  CHECK(st.vertex_start_settle()->evaluations.size() == r.evaluations.size());  // once
+
+  cfg.settle_before_vertices = false;  // off: no settle, the IoR the freeze left
+  dr::HostScene u = glass_sphere(1.49f, Vec3f(0.0f));
+  pipeline::Stage2 off(u, views_of(photos), mask_views_of(photos), cfg);
+  while (!off.done()) off.step();
+  CHECK_FALSE(off.vertex_start_settle().has_value());
+  CHECK(std::abs(u.ior - 1.49f) < 0.005f);
 }
 
 TEST_CASE("stage 2 fits the sky no background pixel saw") {
@@ -628,6 +687,8 @@ TEST_CASE("stage 2 with geometry: refraction finds a pit that the silhouettes ca
   cfg.absorption_model = pipeline::AbsorptionModel::grid;
   cfg.iterations = 160;
   cfg.freeze_geometry = 10;
+  cfg.geometry_iterations = 500;  // the λ and the blur fall once, after 100 vertex steps
+  cfg.blur_halving = 100;
   cfg.rays_per_iteration = 1024;
   cfg.optimize_positions = true;
   cfg.optimize_ior = false;
