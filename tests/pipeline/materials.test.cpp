@@ -223,6 +223,7 @@ TEST_CASE("settle_before_vertices: the IoR settles once, before the first vertex
   cfg.ior_settle_batches = 64;
   cfg.ior_settle_window = 4;
   cfg.settle_before_vertices = true;
+  cfg.ior_with_vertices = pipeline::IorWithVertices::off;  // held after the settle, to be seen
   dr::HostScene s = glass_sphere(1.49f, Vec3f(0.0f));
   pipeline::Stage2 st(s, views_of(photos), mask_views_of(photos), cfg);
   std::vector<pipeline::Stage2Stats> runs;
@@ -552,13 +553,32 @@ TEST_CASE("stage 2 with geometry: a dented sphere moves towards the truth") {
     CHECK(off.positions != on.positions);          // the weighted vertex steps go elsewhere
   }
   SUBCASE("the IoR holds still while the vertices move, unless it moves with them (Stage2Config::ior_with_vertices)") {
-    const VertexPhase held = vertex_phase([](pipeline::Stage2Config& c) { c.ior_with_vertices = false; });
-    const VertexPhase with = vertex_phase([](pipeline::Stage2Config& c) { c.ior_with_vertices = true; });
+    using pipeline::IorWithVertices;
+    const VertexPhase held = vertex_phase([](pipeline::Stage2Config& c) { c.ior_with_vertices = IorWithVertices::off; });
+    const VertexPhase with = vertex_phase([](pipeline::Stage2Config& c) { c.ior_with_vertices = IorWithVertices::on; });
     MESSAGE("IoR change over the vertex iterations: held " << held.ior_at_end - held.ior_at_freeze << ", with the vertices "
                                                            << with.ior_at_end - with.ior_at_freeze);
     CHECK(held.ior_at_end == held.ior_at_freeze);
     CHECK(with.ior_at_end != with.ior_at_freeze);
     CHECK(held.positions != with.positions);  // the vertices see the IoR move
+    // `clear`: held for this absorbing fit (a grid), moving for a clear one
+    const VertexPhase clear_absorbing =
+        vertex_phase([](pipeline::Stage2Config& c) { c.ior_with_vertices = IorWithVertices::clear; });
+    CHECK(clear_absorbing.positions == held.positions);
+    CHECK(clear_absorbing.ior_at_end == held.ior_at_end);
+    const auto clear_object = [](IorWithVertices mode) {
+      return [mode](pipeline::Stage2Config& c) {
+        c.absorption_model = pipeline::AbsorptionModel::none;
+        c.ior_with_vertices = mode;
+      };
+    };
+    const VertexPhase clear_on = vertex_phase(clear_object(IorWithVertices::on));
+    const VertexPhase clear_auto = vertex_phase(clear_object(IorWithVertices::clear));
+    const VertexPhase clear_off = vertex_phase(clear_object(IorWithVertices::off));
+    CHECK(clear_auto.positions == clear_on.positions);
+    CHECK(clear_auto.ior_at_end == clear_on.ior_at_end);
+    CHECK(clear_auto.ior_at_end != clear_auto.ior_at_freeze);
+    CHECK(clear_off.ior_at_end == clear_off.ior_at_freeze);
   }
   SUBCASE("the vertices' own colour loss (Stage2Config::geometry_colour_loss) acts while they move, and only then") {
     const VertexPhase plain =
