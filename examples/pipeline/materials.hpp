@@ -190,7 +190,7 @@ struct Stage2Config {
   int mask_every = 5;             // the mask + edge-normal step on the vertices, once geometry moves
   int mask_views = 4;
   // learning rates (Adam; positions: AdamUniform on u = (I + λL) x), decayed as lr·10^(−decay·i)
-  float lr_ior_frozen = 1e-4f;    // the first freeze_geometry iterations
+  float lr_ior_frozen = 1e-4f;    // the first ior_warmup iterations
   float lr_ior = 3e-3f;           // afterwards
   // On the raw (softplus) parameters. From the searched start a slow rate:
   // the absorption's gradient is heavy-tailed where a sample meets a sun
