@@ -72,6 +72,17 @@ inline const std::array<const char*, 2>& enum_names(PixelLoss) {
   return names;
 }
 
+// How the training batches pick their views and pixels: `random`, each
+// batch on its own (views without repetition, pixels with); `epochs`, in
+// passes over the data: every view once before any twice, and each view's
+// pixels every one once before any twice, so that the pixel-to-pixel spread
+// of the gradient cancels over a pass instead of adding up as noise.
+enum class PixelOrder : int { random, epochs };
+inline const std::array<const char*, 2>& enum_names(PixelOrder) {
+  static const std::array<const char*, 2> names{"random", "epochs"};
+  return names;
+}
+
 // Whether the IoR keeps moving while the vertices move (Stage2Config::
 // ior_with_vertices): never, always, or when the object is clear (the
 // absorption fitted is none).
@@ -135,6 +146,12 @@ struct Stage2Config {
   // it to 4.56e-5.
   int pixel_samples = 2;
   PixelLoss pixel_loss = PixelLoss::pairs;
+  // The order of the training pixels. Passes over the data (epochs) halved
+  // the spread of horse-green's IoR over five seeds (materials alone, s.d.
+  // 0.036 → 0.019) but not its error (mean 1.490 and 1.492 for a true
+  // 1.45), and moved the vertices no better on spot-clear and bunny-clear
+  // (docs/stage2-diagnostics.md, "ior-noise"): random.
+  PixelOrder pixel_order = PixelOrder::random;
   int views_per_iteration = 8;
   // The IoR at its slow rate (the paper's 1e-4) for the first ior_warmup
   // iterations: the absorption finds its level first, or the IoR drifts to
@@ -501,6 +518,10 @@ struct Stage2Config {
             "how a pixel's samples meet the photograph: mean (loss of their mean) or pairs (products of residuals "
             "of sample pairs: no variance bias)"},
       c.pixel_loss);
+    v(Field{"pixel_order", "--materials-pixel-order",
+            "how the training batches take views and pixels: random (each batch on its own) or epochs (passes over "
+            "the data, each pixel once per pass)"},
+      c.pixel_order);
     v(Field{"ior_warmup", "--materials-ior-warmup", "iterations with the IoR at its slow rate (lr_ior_frozen)", 0, big},
       c.ior_warmup);
     v(Field{"freeze_geometry", "--materials-freeze",
@@ -847,15 +868,33 @@ class Stage2 {
   // uniform), consecutive in `rays`; one target per pixel. With
   // `neighbours`, half as many pixels are drawn and each is followed (rays
   // and target) by one of its four neighbours (neighbour_distance pixels
-  // away) inside the image, at random.
+  // away) inside the image, at random. With `sequence` ≥ 0 and pixel_order
+  // epochs, the views and pixels are not drawn but read from the training
+  // sequence (epoch_view, epoch_pixel) at batch number `sequence`; the
+  // jitter (and the neighbours' sides) still come from `rng`.
   void draw_batch(std::mt19937_64& rng, std::vector<BatchRay>& rays, std::vector<Vec3f>& target,
-                  bool neighbours = false, int ray_count = 0) const {
+                  bool neighbours = false, int ray_count = 0, std::int64_t sequence = -1) const {
     if (ray_count <= 0) ray_count = config_.rays_per_iteration;
     std::vector<int> order(views_.size());
     std::iota(order.begin(), order.end(), 0);
     if (batch_views_) order = *batch_views_;  // while the absorption model is chosen: a part of the views
-    std::shuffle(order.begin(), order.end(), rng);
-    order.resize(std::min<std::size_t>(order.size(), std::size_t(std::max(1, config_.views_per_iteration))));
+    const std::size_t batch_views = std::min<std::size_t>(order.size(), std::size_t(std::max(1, config_.views_per_iteration)));
+    const bool epochs = sequence >= 0 && config_.pixel_order == PixelOrder::epochs && !order.empty();
+    // per chosen view, its place in the epoch sequence of views (epochs only)
+    std::vector<std::int64_t> view_epoch;
+    if (epochs) {
+      std::vector<int> chosen;
+      for (std::size_t j = 0; j < batch_views; ++j) {
+        const std::int64_t i = sequence * std::int64_t(batch_views) + std::int64_t(j);
+        const std::int64_t epoch = i / std::int64_t(order.size());
+        chosen.push_back(order[std::size_t(epoch_view(order.size(), epoch)[std::size_t(i % std::int64_t(order.size()))])]);
+        view_epoch.push_back(epoch);
+      }
+      order = chosen;
+    } else {
+      std::shuffle(order.begin(), order.end(), rng);
+      order.resize(batch_views);
+    }
     rays.clear();
     target.clear();
     const int k = std::max(1, config_.pixel_samples);
@@ -865,7 +904,8 @@ class Stage2 {
     const int per_view = std::max(1, ray_count / (k * group * int(order.size())));
     std::uniform_real_distribution<float> unit(0.0f, 1.0f);
     std::uniform_int_distribution<int> side(0, 3);
-    for (int v : order) {
+    for (std::size_t o = 0; o < order.size(); ++o) {
+      const int v = order[o];
       const auto& pix = pixels_[std::size_t(v)];
       if (pix.empty()) continue;
       const Stage2View& view = views_[std::size_t(v)];
@@ -882,8 +922,20 @@ class Stage2 {
         const float* c = view.image + (std::size_t(y) * std::size_t(width) + std::size_t(x)) * 3;
         target.push_back(Vec3f(c[0], c[1], c[2]));
       };
+      // epochs: the view's pixels in the order of its own sequence, the
+      // per_view of them from its view_epoch-th appearance on
+      std::int64_t pixel_epoch = -1;
+      std::vector<std::int32_t> pixel_order;
       for (int r = 0; r < per_view; ++r) {
-        const std::int32_t p = pix[pick(rng)];
+        std::int32_t p;
+        if (epochs) {
+          const std::int64_t e = view_epoch[o] * per_view + r;
+          const std::int64_t n_pix = std::int64_t(pix.size());
+          if (e / n_pix != pixel_epoch) pixel_epoch = e / n_pix, pixel_order = epoch_pixel(v, pix.size(), pixel_epoch);
+          p = pix[std::size_t(pixel_order[std::size_t(e % n_pix)])];
+        } else {
+          p = pix[pick(rng)];
+        }
         const int x = p % width, y = p / width;
         add_pixel(x, y);
         if (!neighbours) continue;
@@ -895,6 +947,29 @@ class Stage2 {
         add_pixel(std::clamp(x + dx, 0, width - 1), std::clamp(y + dy, 0, height - 1));
       }
     }
+  }
+
+  // The training sequence (pixel_order epochs): epoch e of the views is a
+  // permutation of the `count` views keyed by the seed and e, and epoch e of
+  // view v's pixels a permutation of its `count` pixels keyed by the seed, v
+  // and e; a pure function of its arguments, so that a batch is one of its
+  // iteration (a resumed fit draws what the uninterrupted one drew).
+  std::vector<std::int32_t> epoch_view(std::size_t count, std::int64_t e) const {
+    return permutation(count, config_.seed * 0xA24BAED4963EE407ull + 0x51E7u + std::uint64_t(e));
+  }
+  std::vector<std::int32_t> epoch_pixel(int view, std::size_t count, std::int64_t e) const {
+    return permutation(count, config_.seed * 0x9FB21C651E98DF25ull + 0xC0FFEEull * std::uint64_t(view + 1) +
+                                  std::uint64_t(e) * 0x632BE59BD9B4E019ull);
+  }
+  static std::vector<std::int32_t> permutation(std::size_t count, std::uint64_t key) {
+    std::vector<std::int32_t> out(count);
+    std::iota(out.begin(), out.end(), 0);
+    std::mt19937_64 rng(key);
+    for (std::size_t i = count; i > 1; --i) {  // Fisher–Yates with the generator's own bits: the same on every library
+      const std::size_t j = std::size_t(rng() % std::uint64_t(i));
+      std::swap(out[i - 1], out[j]);
+    }
+    return out;
   }
 
   // The glint level of a batch of photographed pixels (glint_factor × their
@@ -1115,7 +1190,7 @@ class Stage2 {
     std::vector<BatchRay> rays;
     std::vector<Vec3f> target;
     const bool neighbours = st.geometry_moving && config_.geometry_neighbours;
-    draw_batch(rng, rays, target, neighbours, st.geometry_moving ? config_.vertex_rays : 0);
+    draw_batch(rng, rays, target, neighbours, st.geometry_moving ? config_.vertex_rays : 0, it);
     const float glint = glint_level(target, config_.glint_factor);
     const std::size_t groups = neighbours ? target.size() / 2 : target.size();
 

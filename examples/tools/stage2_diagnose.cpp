@@ -27,6 +27,10 @@
 //              grey absorption): the loss over fixed batches on a grid,
 //              the parabola through its lowest points, and the spread of
 //              dL/dIoR over batches at the material's IoR.
+//   ior-noise  the fit's own IoR gradient (its pixel samples, pair loss, tracer
+//              and clip) split by pixel class: glinting photographs, glinting
+//              samples, dim / middle / bright; per class its slope across
+//              three IoRs (the signal) and its spread over batches (the noise).
 //   movement   how the refined mesh moved from the stage-1 mesh, read
 //              against the truth (metrics::surface_movement): correction,
 //              common offset or wandering, and where; with --contours,
@@ -93,6 +97,7 @@ struct CommonOptions {
   std::uint64_t seed = 1;
   int iteration = 0;      // the first batch is Stage2's batch of this iteration
   losses::ColourLoss colour_loss = losses::ColourLoss::l2;
+  int pixel_samples = 1;  // rays per pixel (1: the rays one by one; ior-noise: the fit's 2)
 };
 
 void add_common(CLI::App* cmd, CommonOptions& o) {
@@ -189,7 +194,9 @@ class Setup {
     config_.trace.prune_throughput = o.prune;
     config_.seed = o.seed;
     config_.colour_loss = o.colour_loss;
-    config_.pixel_samples = 1;  // the diagnostics look at rays one by one, each against its pixel
+    // the diagnostics look at rays one by one, each against its pixel, but
+    // for ior-noise, which takes the fit's samples per pixel
+    config_.pixel_samples = o.pixel_samples;
     // Stage2 starts the material afresh; the diagnostics keep the given one
     const MaterialState given(*s_);
     stage_ = std::make_unique<pipeline::Stage2>(*s_, training_.views, training_.mask_views, config_);
@@ -1259,6 +1266,151 @@ io::Json ior_scan(Setup& setup, const IorOptions& o) {
   return out;
 }
 
+struct IorNoiseOptions {
+  int batches = 32;           // fixed batches per IoR
+  double step = 0.02;         // the IoRs: the material's and ± step
+  float glint = 20.0f;        // a glint: brighter than this times the batch's median photographed pixel
+};
+
+// Which pixels carry the IoR's signal and which its noise, in the fit's own
+// estimator: its samples per pixel and their pair loss, its tracer and its
+// per-ray clip. The IoR gradient of each batch is split by pixel class
+// (the gradient is a sum over pixels, so the classes' parts add up to it):
+// pixels whose photograph glints, pixels where only a sample glints, and
+// the rest by the photograph's brightness (thirds of the batch). At the
+// material's IoR and ± step, per class: the mean part and its spread over
+// the batches, and the slope of each batch's three values. The slope is the
+// signal (how hard the class pulls the IoR back per unit of error), the
+// spread the noise; batches_for_0.01 is how many batches a 0.01 error needs
+// before the class's mean pull stands two standard errors clear of zero.
+io::Json ior_noise(Setup& setup, const IorNoiseOptions& o) {
+  HostScene& s = setup.scene();
+  const pipeline::Stage2& stage = setup.stage();
+  const float ior0 = s.ior;
+  const int k = std::max(1, stage.config().pixel_samples);
+  enum Class : int { photo_glint, sample_glint, dim, middle, bright, classes };
+  static const char* const names[classes] = {"photograph_glints", "a_sample_glints", "dim", "middle", "bright"};
+  const std::vector<double> iors{double(ior0) - o.step, double(ior0), double(ior0) + o.step};
+  // value[class][ior][batch]
+  std::vector<std::vector<std::vector<double>>> value(
+      classes, std::vector<std::vector<double>>(iors.size(), std::vector<double>(std::size_t(o.batches), 0.0)));
+  std::vector<double> pixels(classes, 0.0);
+  double split_error = 0.0;  // the largest |sum of the parts - the whole| / sum of |parts| over the batches
+  for (bool& d : s.differentiate) d = false;
+  s.differentiate[render::param_ior] = true;
+  for (int b = 0; b < o.batches; ++b) {
+    std::vector<BatchRay> rays;
+    std::vector<Vec3f> target;
+    setup.batch(b, rays, target);
+    const std::size_t n = target.size();
+    const float inv_n = 1.0f / float(std::max<std::size_t>(1, n));
+    const float level = stage.glint_level(target, o.glint);
+    // the brightness thirds of the pixels whose photograph does not glint
+    std::vector<float> bright_of;
+    for (const Vec3f& t : target)
+      if (pipeline::Stage2::brightest(t) <= level) bright_of.push_back(float(luminance(t)));
+    std::sort(bright_of.begin(), bright_of.end());
+    const float third1 = bright_of.empty() ? 0.0f : bright_of[bright_of.size() / 3];
+    const float third2 = bright_of.empty() ? 0.0f : bright_of[2 * bright_of.size() / 3];
+    const auto class_of = [&](std::size_t p, const Vec3f* L) {
+      if (!(pipeline::Stage2::brightest(target[p]) <= level)) return photo_glint;
+      for (int q = 0; q < k; ++q)
+        if (!(pipeline::Stage2::brightest(L[q]) <= level)) return sample_glint;
+      const float y = float(luminance(target[p]));
+      return y < third1 ? dim : y < third2 ? middle : bright;
+    };
+    for (std::size_t q = 0; q < iors.size(); ++q) {
+      s.ior = float(iors[q]);
+      for (int c = 0; c < classes; ++c) {
+        render::SceneGradient g(s);
+        render::PassOptions po;
+        po.trace = setup.trace();
+        std::vector<std::uint8_t> counted(n, 0);
+        render::ray_group_gradient<float>(
+            s, rays, k,
+            [&](std::int64_t i, const Vec3f* L, Vec3f* dL) {
+              const std::size_t p = std::size_t(i);
+              if (class_of(p, L) != c) {
+                for (int j = 0; j < k; ++j) dL[j] = Vec3f(0.0f);
+                return 0.0;
+              }
+              counted[p] = 1;
+              return stage.pixel_loss(L, k, target[p], inv_n, dL, stage.config().colour_loss).value;
+            },
+            g, po, false, 0.0f, stage.config().clip_ior * inv_n);
+        value[std::size_t(c)][q][std::size_t(b)] = double(g.ior[0]);
+        if (q == 1) pixels[std::size_t(c)] += double(std::count(counted.begin(), counted.end(), std::uint8_t(1))) / double(n);
+      }
+      if (q != 1) continue;
+      // the whole batch at once: the parts must add up to it
+      render::SceneGradient g(s);
+      render::PassOptions po;
+      po.trace = setup.trace();
+      render::ray_group_gradient<float>(
+          s, rays, k,
+          [&](std::int64_t i, const Vec3f* L, Vec3f* dL) {
+            return stage.pixel_loss(L, k, target[std::size_t(i)], inv_n, dL, stage.config().colour_loss).value;
+          },
+          g, po, false, 0.0f, stage.config().clip_ior * inv_n);
+      double parts = 0.0, size = 0.0;
+      for (int c = 0; c < classes; ++c)
+        parts += value[std::size_t(c)][1][std::size_t(b)], size += std::abs(value[std::size_t(c)][1][std::size_t(b)]);
+      split_error = std::max(split_error, std::abs(parts - double(g.ior[0])) / std::max(size, 1e-30));
+    }
+    cli::progress("ior-noise: batch " + std::to_string(b + 1) + "/" + std::to_string(o.batches));
+  }
+  s.ior = ior0;
+  for (bool& d : s.differentiate) d = false;
+  s.differentiate[render::param_positions] = s.differentiate[render::param_normals] = true;
+  const auto mean_sd = [](const std::vector<double>& v) {
+    double m = 0.0, var = 0.0;
+    for (double x : v) m += x / double(v.size());
+    for (double x : v) var += (x - m) * (x - m) / double(std::max<std::size_t>(1, v.size() - 1));
+    return std::pair<double, double>(m, std::sqrt(var));
+  };
+  // a group of classes: their parts summed batch by batch
+  const auto report = [&](const std::vector<int>& members) {
+    io::Json j;
+    double share = 0.0;
+    for (int c : members) share += pixels[std::size_t(c)] / double(o.batches);
+    j["pixel_share"] = share;
+    io::Json at = io::Json::array();
+    std::vector<std::vector<double>> sum(iors.size(), std::vector<double>(std::size_t(o.batches), 0.0));
+    for (std::size_t q = 0; q < iors.size(); ++q) {
+      for (int c : members)
+        for (int b = 0; b < o.batches; ++b) sum[q][std::size_t(b)] += value[std::size_t(c)][q][std::size_t(b)];
+      const auto [m, sd] = mean_sd(sum[q]);
+      at.push_back({{"ior", iors[q]}, {"mean", m}, {"std", sd}, {"standard_error", sd / std::sqrt(double(o.batches))}});
+    }
+    j["gradient"] = at;
+    std::vector<double> slope(std::size_t(o.batches));
+    for (int b = 0; b < o.batches; ++b)
+      slope[std::size_t(b)] = (sum[2][std::size_t(b)] - sum[0][std::size_t(b)]) / (iors[2] - iors[0]);
+    const auto [sm, ssd] = mean_sd(slope);
+    const double noise = mean_sd(sum[1]).second;
+    j["slope"] = sm;
+    j["slope_standard_error"] = ssd / std::sqrt(double(o.batches));
+    // a 0.01 error pulls by 0.01 × slope; its mean over N batches stands 2 SE clear when N ≥ (2 σ / (0.01 slope))²
+    j["batches_for_0.01"] = sm > 0.0 ? std::pow(2.0 * noise / (0.01 * sm), 2.0) : -1.0;
+    return j;
+  };
+  io::Json out;
+  out["iors"] = iors;
+  out["batches"] = o.batches;
+  out["pixel_samples"] = k;
+  out["glint_factor"] = o.glint;
+  // float sums of the rays in another order: the parts and the whole agree to rounding
+  out["split_error"] = split_error;
+  out["split_exact"] = split_error < 1e-3;
+  io::Json by = io::Json::object();
+  for (int c = 0; c < classes; ++c) by[names[c]] = report({c});
+  out["by_class"] = by;
+  out["all"] = report({photo_glint, sample_glint, dim, middle, bright});
+  out["without_glints"] = report({dim, middle, bright});
+  out["without_sample_glints"] = report({photo_glint, dim, middle, bright});
+  return out;
+}
+
 std::vector<double> parse_numbers(const std::string& text, const std::string& option) {
   std::vector<double> v;
   std::stringstream ss(text);
@@ -1699,6 +1851,19 @@ int main(int argc, char** argv) {
   r->add_option("--gradient-batches", io_.gradient_batches, "Batches of dL/dIoR at the material's IoR")
       ->capture_default_str()->check(CLI::PositiveNumber);
 
+  IorNoiseOptions no;
+  CLI::App* nz = app.add_subcommand("ior-noise", "The fit's own IoR gradient split by pixel class (glints, "
+                                                 "brightness): where its signal and its noise come from");
+  add_common(nz, common);
+  nz->add_option("--batches", no.batches, "Fixed batches per IoR")->capture_default_str()->check(CLI::Range(2, 100000));
+  nz->add_option("--step", no.step, "The IoRs: the material's and ± STEP")->capture_default_str()
+      ->check(CLI::Range(1e-6, 1.0));
+  nz->add_option("--glint", no.glint, "Glint level: this times the batch's median photographed pixel")
+      ->capture_default_str()->check(CLI::PositiveNumber);
+  int noise_samples = 2;
+  nz->add_option("--pixel-samples", noise_samples, "Rays per pixel, compared as the fit does (pairs)")
+      ->capture_default_str()->check(CLI::Range(1, 64));
+
   MovementOptions mo;
   CLI::App* mv = app.add_subcommand("movement", "How --mesh moved from --reference (stage 1), against the true mesh: "
                                                 "correction, offset or wandering");
@@ -1750,6 +1915,7 @@ int main(int argc, char** argv) {
       std::cout << result.dump(2) << std::endl;
       return 0;
     }
+    if (nz->parsed()) common.pixel_samples = noise_samples;
     Setup setup(common);
     io::Json result;
     result["scene"] = common.scene.string();
@@ -1774,6 +1940,8 @@ int main(int argc, char** argv) {
       io_.clip_ior = parse_numbers(clip_ior, "--clip-ior");
       if (!check_steps.empty()) io_.check_steps = parse_numbers(check_steps, "--check-steps");
       result["ior_scan"] = ior_scan(setup, io_);
+    } else if (nz->parsed()) {
+      result["ior_noise"] = ior_noise(setup, no);
     } else if (e->parsed()) {
       result["environment_sources"] = environment_sources(setup, eo);
     } else {

@@ -11,7 +11,9 @@
 #include <cmath>
 #include <filesystem>
 #include <functional>
+#include <random>
 #include <string>
+#include <utility>
 #include <unistd.h>
 #include <vector>
 
@@ -339,6 +341,77 @@ TEST_CASE("Stage2::fixed_loss: the same rays at every call, lower on the true su
   CHECK(a.mean > r.mean + 3.0 * (a.standard_error + r.standard_error));
   CHECK(dented.environment == blurred);
   CHECK(std::equal(std::begin(flags), std::end(flags), std::begin(dented.differentiate)));
+}
+
+TEST_CASE("pixel_order epochs: every view and every pixel once per pass, the same pixels whatever the generator") {
+  const dr::HostScene truth = glass_sphere(1.45f, Vec3f(0.0f));
+  Photos photos = photograph(truth, 5, 24);
+  // each photograph's pixel says which view and pixel it is
+  for (std::size_t v = 0; v < photos.images.size(); ++v)
+    for (std::size_t i = 0; i * 3 < photos.images[v].size(); ++i) {
+      photos.images[v][3 * i] = float(v);
+      photos.images[v][3 * i + 1] = float(i);
+      photos.images[v][3 * i + 2] = 1.0f;
+    }
+  std::vector<std::size_t> object(photos.masks.size());
+  for (std::size_t v = 0; v < photos.masks.size(); ++v)
+    object[v] = std::size_t(std::count(photos.masks[v].begin(), photos.masks[v].end(), std::uint8_t(1)));
+  pipeline::Stage2Config cfg = clear_vertex_config();
+  cfg.views_per_iteration = 2;  // 5 views: a pass over them every 2.5 batches
+  cfg.pixel_samples = 2;
+  cfg.rays_per_iteration = 2 * 2 * 7;  // 7 pixels per view and batch
+  dr::HostScene scene = glass_sphere(1.45f, Vec3f(0.0f));
+  const auto counts = [&](pipeline::PixelOrder order, int batches) {
+    cfg.pixel_order = order;
+    pipeline::Stage2 stage(scene, views_of(photos), mask_views_of(photos), cfg);
+    std::vector<std::vector<int>> seen(photos.images.size());
+    for (std::size_t v = 0; v < seen.size(); ++v) seen[v].assign(photos.masks[v].size(), 0);
+    std::vector<int> views(photos.images.size(), 0);
+    for (int b = 0; b < batches; ++b) {
+      std::mt19937_64 rng = stage.batch_generator(b);
+      std::vector<dr::BatchRay> rays;
+      std::vector<Vec3f> target;
+      stage.draw_batch(rng, rays, target, false, 0, b);
+      REQUIRE(rays.size() == 2 * target.size());
+      for (std::size_t p = 0; p < target.size(); p += 7) ++views[std::size_t(target[p].x)];
+      for (const Vec3f& t : target) {
+        REQUIRE(photos.masks[std::size_t(t.x)][std::size_t(t.y)] == 1);
+        ++seen[std::size_t(t.x)][std::size_t(t.y)];
+      }
+    }
+    // the largest difference between two views' counts, and between two object pixels' of one view
+    int view_spread = *std::max_element(views.begin(), views.end()) - *std::min_element(views.begin(), views.end());
+    int pixel_spread = 0;
+    for (std::size_t v = 0; v < seen.size(); ++v) {
+      int lo = 1 << 30, hi = 0;
+      for (std::size_t i = 0; i < seen[v].size(); ++i)
+        if (photos.masks[v][i]) lo = std::min(lo, seen[v][i]), hi = std::max(hi, seen[v][i]);
+      pixel_spread = std::max(pixel_spread, hi - lo);
+    }
+    return std::pair<int, int>(view_spread, pixel_spread);
+  };
+  const std::size_t fewest = *std::min_element(object.begin(), object.end());
+  REQUIRE(fewest > 14);
+  for (const int batches : {1, 3, 7, 40, 101}) {
+    const auto [views, pixels] = counts(pipeline::PixelOrder::epochs, batches);
+    CHECK(views <= 1);
+    CHECK(pixels <= 1);
+  }
+  // drawn at random, the counts spread
+  const auto [random_views, random_pixels] = counts(pipeline::PixelOrder::random, 101);
+  MESSAGE("random order after 101 batches: views differ by " << random_views << ", pixels by " << random_pixels);
+  CHECK(random_views > 1);
+  CHECK(random_pixels > 1);
+  // the pixels are the batch number's, whatever generator the jitter comes from
+  cfg.pixel_order = pipeline::PixelOrder::epochs;
+  pipeline::Stage2 stage(scene, views_of(photos), mask_views_of(photos), cfg);
+  std::mt19937_64 g1(1), g2(2);
+  std::vector<dr::BatchRay> r1, r2;
+  std::vector<Vec3f> t1, t2;
+  stage.draw_batch(g1, r1, t1, false, 0, 12);
+  stage.draw_batch(g2, r2, t2, false, 0, 12);
+  CHECK(t1 == t2);
+  CHECK(r1[0].direction != r2[0].direction);  // the jitter is the generator's
 }
 
 TEST_CASE("keep_best_level: vertices that make the loss worse go back to the best level and stop") {
