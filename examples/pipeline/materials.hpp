@@ -1517,24 +1517,23 @@ class Stage2 {
   };
   const SigmaSearchEvidence& sigma_search_evidence() const { return search_evidence_; }
 
+  // The mean IoR over the last `window` iterations run (the current IoR when none).
+  float recent_ior(int window) const { return mean_ior_since(int(history_.size()) - std::max(1, window)); }
   // The IoR to report: the mean over the last average_fraction of the
   // iterations run (at least one), the vertices still then; the current
   // IoR when there is no such iteration.
-  // The mean IoR over the last `window` iterations run (the current IoR when none).
-  float recent_ior(int window) const {
-    const int n = int(history_.size()), first = std::max(0, n - std::max(1, window));
+  float averaged_ior() const {
+    const int n = int(history_.size());
+    return mean_ior_since(std::max(n - std::max(1, int(std::lround(config_.average_fraction * float(config_.iterations)))),
+                                   geometry_end()));
+  }
+  // The mean IoR of the iterations from `first` on (the IoR now when none).
+  float mean_ior_since(int first) const {
+    const int n = int(history_.size());
+    first = std::max(0, first);
     double sum = 0.0;
     for (int i = first; i < n; ++i) sum += double(history_[std::size_t(i)].ior);
     return n > first ? float(sum / double(n - first)) : scene_.ior;
-  }
-  float averaged_ior() const {
-    const int n = int(history_.size());
-    const int first = std::max({0, n - std::max(1, int(std::lround(config_.average_fraction * float(config_.iterations)))),
-                                geometry_end()});
-    double sum = 0.0;
-    int count = 0;
-    for (int i = first; i < n; ++i) sum += double(history_[std::size_t(i)].ior), ++count;
-    return count > 0 ? float(sum / count) : scene_.ior;
   }
 
   // The IoR's last word. An optimizer's last iterate (or the mean of the last
