@@ -92,6 +92,15 @@ inline const std::array<const char*, 3>& enum_names(IorWithVertices) {
   return names;
 }
 
+// When the unseen sky's factor is fitted (Stage2Config::unseen_sky): never,
+// always, or when the absorption model fitted is homogeneous (given, or
+// chosen: the choice itself sees the sky as the map has it).
+enum class UnseenSky : int { off, on, homogeneous };
+inline const std::array<const char*, 3>& enum_names(UnseenSky) {
+  static const std::array<const char*, 3> names{"off", "on", "homogeneous"};
+  return names;
+}
+
 // the parts stage 2 assembles
 using namespace difftrans::render;
 
@@ -188,6 +197,15 @@ struct Stage2Config {
   // 2.83, 0.249 (the IoR fell to 1.20). Hence `clear`: with the vertices
   // when the absorption fitted is none.
   IorWithVertices ior_with_vertices = IorWithVertices::clear;
+  // While the vertices move and the IoR or the absorption moves with them,
+  // where their gradient comes from. 0: the vertices' own pass (neighbouring
+  // pixels' log-residual differences under the blurred sky), which on an
+  // absorbing object feeds the IoR a slope of its own: on horse-green it
+  // ran to its bound of 1 (docs/stage2-diagnostics.md, "ior-noise"). N > 0:
+  // a second pass of N rays per iteration drawn as the materials' batches
+  // are (each pixel's own colour_loss, the sharp sky, no vertex gradient);
+  // the vertices' pass then differentiates the vertices alone.
+  int materials_pass_rays = 0;
   // Before the first vertex step the IoR settles (settle_ior(), from its
   // mean over the last ior_settle_window iterations), so that the vertices
   // start from a better IoR (above: they keep the one they start from). On
@@ -404,19 +422,20 @@ struct Stage2Config {
   // bright, and the absorption search started at 4.69, 1.33, 5.52 for the
   // true 4.0, 0.4, 4.0 (absorption error 103.5 %; docs/stage2-diagnostics.md,
   // "environment"). With those texels from the true map: 3.20, 0.24, 3.87
-  // and 16.1 %. fit_unseen_sky multiplies the unseen texels by an RGB factor
+  // and 16.1 %. unseen_sky multiplies the unseen texels by an RGB factor
   // fitted with the materials (Adam on its logarithm at lr_sky), starting
   // where two halves of the pixels agree on it and the absorption
   // (search_sigma). Fitted by the gradient alone from 1 it reached 0.67 on
   // horse-green and the absorption stayed at 103 %; with the joint start,
   // 16.1 % (IoR error 0.0255 instead of 0.0499), and spot-clear unchanged
-  // (IoR error 0.0110, factor 0.89 / 0.95 / 0.98). Off by default: on
-  // monkey-bands the two halves of the pixels also differ in their
+  // (IoR error 0.0110, factor 0.89 / 0.95 / 0.98). Not on a banded object:
+  // on monkey-bands the two halves of the pixels also differ in their
   // absorption (the bands), the start came out at σ 1.20 / 0.96 / 1.16 and
   // a factor of 0.46 / 0.42 / 0.55 where the diagnostic asks for about
   // 0.56 / 0.65 / 0.92, and the IoR error went from 0.0385 to 0.0673, the
-  // stage-2 CD from 2.42e-5 to 3.27e-5 (stage 1: 2.60e-5).
-  bool fit_unseen_sky = false;
+  // stage-2 CD from 2.42e-5 to 3.27e-5 (stage 1: 2.60e-5). Hence
+  // `homogeneous`: the factor when the absorption fitted is one σ.
+  UnseenSky unseen_sky = UnseenSky::off;
   float lr_sky = 1e-2f;
   // Per-ray clip of the vertex gradient: the L2 norm of the gradient of one
   // ray's own loss w.r.t. the vertices (positions and normals) is capped at
@@ -538,6 +557,11 @@ struct Stage2Config {
             "whether the IoR keeps moving while the vertices move: off, on, or clear (when the absorption fitted is "
             "none)"},
       c.ior_with_vertices);
+    v(Field{"materials_pass_rays", "--materials-pass-rays",
+            "while the vertices move with the IoR or absorption, those take their gradient from a second pass of N "
+            "rays drawn and scored as the materials' own (0: from the vertices' pass)",
+            0, big},
+      c.materials_pass_rays);
     v(Field{"settle_before_vertices", "--materials-settle-before-vertices",
             "the IoR settles (the zero of its gradient over fixed batches) before the vertices move"},
       c.settle_before_vertices);
@@ -666,9 +690,10 @@ struct Stage2Config {
     v(Field{"glint_factor", "--materials-glint", "pixels brighter than this times the batch's median photographed "
             "pixel, in the photograph or any sample, are left out (0: none)", 0, 1e30},
       c.glint_factor);
-    v(Field{"fit_unseen_sky", "--materials-unseen-sky",
-            "scale the map's texels that no background pixel saw by an RGB factor fitted with the materials"},
-      c.fit_unseen_sky);
+    v(Field{"unseen_sky", "--materials-unseen-sky",
+            "scale the map's texels that no background pixel saw by an RGB factor fitted with the materials: off, "
+            "on, or homogeneous (when the absorption fitted is one sigma)"},
+      c.unseen_sky);
     v(Field{"lr_sky", "", "learning rate of the unseen sky's factor (its logarithm)"}, c.lr_sky);
     v(Field{"clip_geometry", "", "per-ray clip of the vertex gradient's norm (0: off)"}, c.clip_geometry);
     v(Field{"anchor", "--materials-anchor",
@@ -724,7 +749,7 @@ struct Stage2Stats {
   float ior = 0.0f;
   Vec3f mean_sigma{0.0f};
   bool geometry_moving = false;
-  Vec3f sky_scale{1.0f};          // the unseen sky's factor (fit_unseen_sky)
+  Vec3f sky_scale{1.0f};          // the unseen sky's factor (unseen_sky)
   float environment_blur = 0.0f;  // σ in texels of the map this iteration
   double lambda = 0.0;            // large steps' λ of the vertices this iteration (0: they hold still)
   // the vertex step of this iteration (0 when they hold still): its factor
@@ -732,6 +757,7 @@ struct Stage2Stats {
   double vertex_scale = 0.0, vertex_agreement = 0.0, vertex_peak = 0.0;
   std::int64_t rays = 0, skipped_rays = 0, overflowed_rays = 0, clipped_rays = 0, clipped_ior_rays = 0;
   double seconds = 0.0, trace_seconds = 0.0;
+  double materials_pass_color = 0.0;  // the colour loss of materials_pass_rays' batch (0 without one)
 };
 
 // The stage-2 optimization over a HostScene that holds the stage-1 mesh and
@@ -811,7 +837,7 @@ class Stage2 {
 
   // The texels of the map (environment_width x environment_height, 1 = seen)
   // that background pixels saw (pipeline::seen_texels); the others are
-  // scaled by the fitted factor (fit_unseen_sky). Ignored for a near field
+  // scaled by the fitted factor (unseen_sky). Ignored for a near field
   // or a map of another size. Call before the first step() or load().
   void set_seen_texels(std::vector<std::uint8_t> seen) {
     seen_.clear();
@@ -822,7 +848,17 @@ class Stage2 {
   }
   // Whether the unseen sky's factor is fitted, its value, and the unseen
   // texels' share of the sphere's solid angle.
-  bool sky_fitted() const { return config_.fit_unseen_sky && unseen_texels_ > 0; }
+  bool sky_fitted() const {
+    if (unseen_texels_ == 0) return false;
+    switch (config_.unseen_sky) {
+      case UnseenSky::off: return false;
+      case UnseenSky::on: return true;
+      case UnseenSky::homogeneous:  // once the model is known: given, or chosen
+        return scene_.absorption_kind == scene::AbsorptionKind::homogeneous &&
+               (config_.absorption_model != AbsorptionModel::automatic || !choice_.empty());
+    }
+    return false;
+  }
   Vec3f unseen_sky_scale() const { return Vec3f(std::exp(sky_log_[0]), std::exp(sky_log_[1]), std::exp(sky_log_[2])); }
   double unseen_solid_angle_fraction() const {
     return seen_.empty() ? 0.0
@@ -1173,10 +1209,19 @@ class Stage2 {
     }
     if (st.geometry_moving) positions_.change_lambda(lambda_at(it), scene_.mesh.positions);
     st.lambda = st.geometry_moving ? positions_.lambda() : 0.0;
-    if (it == 0 && choosing()) choose_absorption();
+    if (it == 0 && choosing()) {
+      choose_absorption();
+      // unseen_sky homogeneous, one σ chosen: the absorption and the sky
+      // start where the two halves of the pixels agree (search_sigma)
+      if (config_.unseen_sky == UnseenSky::homogeneous && sky_fitted() && !config_.sigma_search.empty())
+        search_sigma();
+    }
     const bool absorbing = absorption_fitted();
-    scene_.differentiate[param_ior] = ior_moving;
-    scene_.differentiate[param_absorption] = absorbing && absorption_moving;
+    // the IoR and absorption from a pass of their own (materials_pass_rays)
+    const bool own_pass = st.geometry_moving && config_.materials_pass_rays > 0 &&
+                          (ior_moving || (absorbing && absorption_moving));
+    scene_.differentiate[param_ior] = ior_moving && !own_pass;
+    scene_.differentiate[param_absorption] = absorbing && absorption_moving && !own_pass;
     scene_.differentiate[param_positions] = st.geometry_moving;
     scene_.differentiate[param_normals] = st.geometry_moving;
     const bool sky_moving = sky_fitted() && materials_moving;
@@ -1231,6 +1276,14 @@ class Stage2 {
     }
     st.rays = std::int64_t(rays.size());
     st.overflowed_rays = rb.stats.overflowed_rays;
+    if (own_pass) {
+      const MaterialsPass mp = materials_pass(it, ior_moving, absorbing && absorption_moving);
+      grad.ior = mp.ior;
+      grad.absorption = mp.absorption;
+      st.materials_pass_color = mp.color;
+      st.rays += mp.rays;
+      st.trace_seconds += mp.seconds;
+    }
 
     // absorption regularizers (a grid's)
     if (absorbing && absorption_moving && scene_.absorption_kind == scene::AbsorptionKind::grid) {
@@ -2252,6 +2305,66 @@ class Stage2 {
     const float blur = environment_blur_;
     environment_blur_ = -1.0f;  // the map changed: rebuild at the same blur
     set_environment_blur(blur);
+  }
+
+  // Stage2Config::materials_pass_rays: the IoR's and the absorption's
+  // gradient at iteration `it` from a batch of their own, drawn (from a
+  // generator of its own, fixed by the seed and the iteration) and scored
+  // as in the materials' iterations, under the sharp sky, the vertices held.
+  struct MaterialsPass {
+    std::vector<float> ior, absorption;
+    double color = 0.0, seconds = 0.0;
+    std::int64_t rays = 0;
+  };
+  MaterialsPass materials_pass(int it, bool ior, bool absorption) {
+    const auto t0 = std::chrono::steady_clock::now();
+    std::mt19937_64 rng(batch_generator(it)() ^ 0x6D6174657269616Cull);
+    std::vector<BatchRay> rays;
+    std::vector<Vec3f> target;
+    draw_batch(rng, rays, target, false, config_.materials_pass_rays);
+    const float glint = glint_level(target, config_.glint_factor);
+    const std::vector<float> weight = pixel_weights(target, false, glint);
+    const float inv_n = 1.0f / float(std::max<std::size_t>(1, target.size()));
+    const int k = std::max(1, config_.pixel_samples);
+    const losses::ColourLoss kind = colour_loss_of(false);
+    // the sharp sky in place of the blurred one, and only the materials differentiated
+    const bool swap_sky = environment_blur_ > 0.0f && !sharp_environment_.empty();
+    if (swap_sky) std::swap(scene_.environment, sharp_environment_);
+    bool saved[param_count];
+    std::copy(std::begin(scene_.differentiate), std::end(scene_.differentiate), saved);
+    for (bool& d : scene_.differentiate) d = false;
+    scene_.differentiate[param_ior] = ior;
+    scene_.differentiate[param_absorption] = absorption;
+    SceneGradient grad(scene_);
+    PassOptions po;
+    po.trace = config_.trace;
+    po.trace.gradient_refractions = 0;
+    po.trace.gradient_depth = 0;
+    std::vector<double> colour(target.size(), 0.0);
+    try {
+      group_gradient(
+          rays, k,
+          [&](std::int64_t i, const Vec3f* L, Vec3f* dL) {
+            const std::size_t p = std::size_t(i);
+            const RayLoss l = group_loss(L, k, &target[p], false, inv_n * weight[p], dL, kind, glint);
+            colour[p] = l.colour;
+            return l.value;
+          },
+          grad, po, 0.0f, config_.clip_ior * inv_n);
+    } catch (...) {
+      std::copy(std::begin(saved), std::end(saved), scene_.differentiate);
+      if (swap_sky) std::swap(scene_.environment, sharp_environment_);
+      throw;
+    }
+    std::copy(std::begin(saved), std::end(saved), scene_.differentiate);
+    if (swap_sky) std::swap(scene_.environment, sharp_environment_);
+    MaterialsPass r;
+    r.ior = std::move(grad.ior);
+    r.absorption = std::move(grad.absorption);
+    for (double c : colour) r.color += c * double(inv_n);
+    r.rays = std::int64_t(rays.size());
+    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return r;
   }
 
   // The first iteration after the vertices' phase (0 without one).
