@@ -1,6 +1,6 @@
 // difftrans evaluate: the metrics of docs/metrics.md as one JSON object on stdout
 // (and in --out): geometry (chamfer, f1, precision, recall) of a predicted
-// mesh against the ground truth, images (psnr, psnr_mask, ssim per image and
+// mesh against the ground truth and the predicted mesh's quality, images (psnr, psnr_mask, ssim per image and
 // mean) of a folder of predictions against a folder of ground truth, IoR error.
 #include <algorithm>
 #include <cmath>
@@ -136,6 +136,8 @@ void evaluate_geometry(const EvaluateOptions& o, io::Json& result) {
   result["samples"] = m.samples;
   result["seed"] = o.seed;
   result["mesh_warnings"] = warnings;
+  // the predicted mesh's own quality: speckle (dihedral angles), self-intersections, topology
+  result["pred_mesh_quality"] = mesh_quality_json(metrics::mesh_quality(io::flat_positions(pred), io::flat_triangles(pred)));
   if (!o.error_map.empty()) write_error_map(o, pred, gt, options, result);
   if (o.bands > 0) write_chamfer_bands(o, matched, result);
 }

@@ -126,15 +126,6 @@ void write_geometry_picture(const std::filesystem::path& path, const io::Mesh& b
   io::write_png8(path, io::compose_sheet(layout, rows));
 }
 
-io::Json mesh_quality_json(const metrics::MeshQuality& q) {
-  return {{"mean_dihedral_degrees", q.mean_dihedral_degrees},
-          {"max_dihedral_degrees", q.max_dihedral_degrees},
-          {"self_intersections", q.self_intersections},
-          {"genus", q.genus},
-          {"components", q.components},
-          {"closed", q.closed}};
-}
-
 namespace {
 
 // The progress line's absorption figure from reconstruct.json's

@@ -16,6 +16,7 @@
 
 #include "difftrans/io/json.hpp"
 #include "difftrans/io/mesh.hpp"
+#include "difftrans/metrics/mesh_quality.hpp"
 #include "difftrans/metrics/normals.hpp"
 
 namespace difftrans::cli {
@@ -36,6 +37,17 @@ inline io::Json normal_error_json(const metrics::NormalError& e) {
   j["p90"] = e.p90_deg;
   j["rms"] = e.rms_deg;
   return j;
+}
+
+// A mesh's quality (metrics/mesh_quality.hpp) as reconstruct.json and
+// evaluate write it.
+inline io::Json mesh_quality_json(const metrics::MeshQuality& q) {
+  return {{"mean_dihedral_degrees", q.mean_dihedral_degrees},
+          {"max_dihedral_degrees", q.max_dihedral_degrees},
+          {"self_intersections", q.self_intersections},
+          {"genus", q.genus},
+          {"components", q.components},
+          {"closed", q.closed}};
 }
 
 // A short text that changes when the bytes change (FNV-1a, 64 bits): tells a

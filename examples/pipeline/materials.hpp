@@ -34,6 +34,7 @@
 #include <utility>
 #include <vector>
 
+#include "difftrans/geometry/taubin.hpp"
 #include "difftrans/geometry/topology.hpp"
 #include "difftrans/io/checkpoint.hpp"
 #include "difftrans/losses/absorption.hpp"
@@ -247,6 +248,20 @@ struct Stage2Config {
   // gradient's mean holds them; the mean of the walk lies nearer that place
   // than any one step of it (Polyak–Ruppert averaging).
   int vertex_average = 0;
+  // Taubin passes (geometry/taubin.hpp: λ 0.5, μ −0.53) on the mesh when
+  // the vertices stop, before the materials settle on it: the vertex steps
+  // leave noise at the scale of an edge (a vertex meets less than one ray
+  // per step), which raised the mean dihedral angle above stage 1's on
+  // bunny, horse and the slab, while the stage-1 mesh moved onto the true
+  // surface lies below it (stage 1 / moved to the truth: spot 8.34 / 5.27°,
+  // bunny 8.45 / 7.63, horse 14.76 / 14.58, monkey 13.22 / 11.14, holes-3
+  // cut 7.82 / 5.36; `stage2_diagnose home --write-projected`). One pass on
+  // the stage-2 meshes of seed 1 (docs/stage2-diagnostics.md, "Speckle"):
+  // mean dihedral bunny 9.23 → 7.89°, horse 15.62 → 14.42, the slab 8.57 →
+  // 7.77, spot 7.72 → 6.41, monkey 13.53 → 12.25; chamfer distance ×
+  // 1.001, 0.988, 1.004, 0.971, 0.961. Not when keep_best_level sent the
+  // vertices back to their start. 0: none.
+  int smooth_passes = 1;
   float lr_decay = 2e-4f;
   // Convergence: over the last anneal_fraction of the iterations (never
   // before the vertices stop) the IoR and absorption rates fall along a
@@ -603,6 +618,9 @@ struct Stage2Config {
       c.ior_settle_batches);
     v(Field{"ior_settle_step", "", "spacing of the five IoRs of the final regression"}, c.ior_settle_step);
     v(Field{"ior_settle_rounds", "", "recentrings of the final regression's five IoRs"}, c.ior_settle_rounds);
+    v(Field{"smooth_passes", "--materials-smooth-passes",
+            "Taubin smoothing passes on the mesh when the vertices stop (with --materials-geometry; 0: none)", 0, 1000},
+      c.smooth_passes);
     v(Field{"lambda", "--materials-lambda", "large-steps lambda (with --materials-geometry) when the vertices start", 0,
             1e6},
       c.lambda);
@@ -1191,6 +1209,14 @@ class Stage2 {
     Stage2Stats st;
     st.iteration = it;
     if (level_due(it)) check_level(it);
+    // the vertices have stopped: edge-scale noise out (Stage2Config::smooth_passes),
+    // unless keep_best_level sent them back to where they started
+    const bool sent_back = stopped_at_ >= 0 && best_iteration_ == config_.freeze_geometry;
+    if (config_.optimize_positions && positions_started_ && it == geometry_end() && config_.smooth_passes > 0 &&
+        !sent_back) {
+      geometry::taubin_smooth(scene_.mesh.positions, scene_.mesh.triangles, config_.smooth_passes);
+      scene_.positions_changed();
+    }
     st.geometry_moving = config_.optimize_positions && it >= config_.freeze_geometry && it < geometry_end();
     // the materials hold still while the vertices move
     const bool materials_moving = !st.geometry_moving;
