@@ -283,7 +283,7 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
   const std::unique_ptr<GpuBatchTracer> gpu = gpu_batch_tracer_for(run.device, s, "materials");
   if (gpu) stage.set_batch_gradient(gpu_batch_gradient(*gpu));
   j["device"] = gpu ? "cuda" : "cpu";
-  // the directions the training views' background saw (Stage2Config::fit_unseen_sky)
+  // the directions the training views' background saw (Stage2Config::unseen_sky)
   if (s.environment_width > 0 && !s.near_field)
     stage.set_seen_texels(pipeline::seen_texels(pipeline::background_observations(scene.train), s.environment_width,
                                                 s.environment_height));
@@ -440,7 +440,7 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
                          {"rendered_sum", rendered},
                          {"photographed_sum", {ev.photographed[0], ev.photographed[1], ev.photographed[2]}}};
     const Vec3f k0 = stage.searched_sky();
-    if (std::isfinite(k0.x)) {  // Stage2Config::fit_unseen_sky: the search's factor, per channel found with σ or not
+    if (std::isfinite(k0.x)) {  // Stage2Config::unseen_sky: the search's factor, per channel found with σ or not
       j["sigma_search"]["sky_start"] = {k0.x, k0.y, k0.z};
       j["sigma_search"]["sky_found_with_sigma"] = {ev.sky_joint[0], ev.sky_joint[1], ev.sky_joint[2]};
       progress("materials: starting factor of the unseen sky " + fixed(k0.x, 3) + ", " + fixed(k0.y, 3) + ", " +
