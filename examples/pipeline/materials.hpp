@@ -258,8 +258,8 @@ struct Stage2Config {
   // cut 7.82 / 5.36; `stage2_diagnose home --write-projected`). One pass on
   // the stage-2 meshes of seed 1 (docs/stage2-diagnostics.md, "Speckle"):
   // mean dihedral bunny 9.23 → 7.89°, horse 15.62 → 14.42, the slab 8.57 →
-  // 7.77, spot 7.72 → 6.41, monkey 13.53 → 12.25; chamfer distance ×
-  // 1.001, 0.988, 1.004, 0.971, 0.961. Not when keep_best_level sent the
+  // 7.77, spot 7.72 → 6.41, monkey (seed 2) 13.53 → 12.25; chamfer distance
+  // × 1.001, 0.988, 1.004, 0.971, 0.961. Not when keep_best_level sent the
   // vertices back to their start. 0: none.
   int smooth_passes = 1;
   float lr_decay = 2e-4f;
@@ -450,7 +450,7 @@ struct Stage2Config {
   // 0.56 / 0.65 / 0.92, and the IoR error went from 0.0385 to 0.0673, the
   // stage-2 CD from 2.42e-5 to 3.27e-5 (stage 1: 2.60e-5). Hence
   // `homogeneous`, the default: the factor when the absorption fitted is
-  // one σ (chosen after the choice, which sees the map as given). On
+  // one σ (started after the model choice, which sees the map as given). On
   // horse-green with the vertices (seeds 1 and 2, against off): absorption
   // error 17.4 / 35.1 % (136 / 190 %), IoR error 0.038 / 0.023 (0.032 /
   // 0.077), in-mask test PSNR 18.27 / 18.38 dB (18.31 / 18.15), CD ratio
