@@ -1310,12 +1310,14 @@ class Stage2 {
     st.rays = std::int64_t(rays.size());
     st.overflowed_rays = rb.stats.overflowed_rays;
     if (own_pass) {
-      const MaterialsPass mp = materials_pass(it, ior_moving, absorbing && absorption_moving);
-      grad.ior = mp.ior;
-      grad.absorption = mp.absorption;
-      st.materials_pass_color = mp.color;
-      st.rays += mp.rays;
-      st.trace_seconds += mp.seconds;
+      const auto t2 = clock::now();
+      BatchTotals pass;
+      SceneGradient materials = materials_pass(it, ior_moving, absorbing && absorption_moving, pass);
+      grad.ior = std::move(materials.ior);
+      grad.absorption = std::move(materials.absorption);
+      st.materials_pass_color = pass.colour;
+      st.rays += pass.rays;
+      st.trace_seconds += std::chrono::duration<double>(clock::now() - t2).count();
     }
 
     // absorption regularizers (a grid's)
@@ -1657,10 +1659,7 @@ class Stage2 {
     IorSettle out;
     out.start = out.ior = scene_.ior = start;
     if (config_.ior_settle_batches <= 0 || !config_.optimize_ior) return out;
-    bool differentiate[param_count];
-    std::copy(std::begin(scene_.differentiate), std::end(scene_.differentiate), differentiate);
-    for (bool& d : scene_.differentiate) d = false;
-    scene_.differentiate[param_ior] = true;
+    const DifferentiateOnly only(scene_, true, false);
     set_environment_blur(0.0f);
     const int batches = config_.ior_settle_batches;
     const double h = config_.ior_settle_step;
@@ -1712,7 +1711,6 @@ class Stage2 {
       centre = out.ior;
     }
     scene_.ior = out.ior;
-    std::copy(std::begin(differentiate), std::end(differentiate), scene_.differentiate);
     return out;
   }
 
@@ -1788,26 +1786,60 @@ class Stage2 {
   int vertices_stopped_at() const { return stopped_at_; }
 
   // The gradient of the pixel loss over one batch drawn from `rng`
-  // (draw_batch), each ray's IoR derivative clipped (clip_ior), no vertex
-  // clip: what the IoR's settling and the absorption candidates' fits step on.
-  SceneGradient batch_gradient(std::mt19937_64& rng) {
+  // (draw_batch; ray_count rays, 0: rays_per_iteration), each ray's IoR
+  // derivative clipped (clip_ior), no vertex clip: what the IoR's settling,
+  // the absorption candidates' fits and materials_pass step on. `totals`,
+  // when given, receives the batch's colour loss and its rays.
+  struct BatchTotals {
+    double colour = 0.0;
+    std::int64_t rays = 0;
+  };
+  SceneGradient batch_gradient(std::mt19937_64& rng, int ray_count = 0, BatchTotals* totals = nullptr) {
     std::vector<BatchRay> rays;
     std::vector<Vec3f> target;
-    draw_batch(rng, rays, target);
+    draw_batch(rng, rays, target, false, ray_count);
     const float glint = glint_level(target, config_.glint_factor);
     const float inv_n = 1.0f / float(std::max<std::size_t>(1, target.size()));
     const int k = std::max(1, config_.pixel_samples);
     SceneGradient grad(scene_);
     PassOptions po;
     po.trace = config_.trace;
+    std::vector<double> pixel_colour(target.size(), 0.0);
     group_gradient(
         rays, k,
         [&](std::int64_t i, const Vec3f* L, Vec3f* dL) {
-          return pixel_loss(L, k, target[std::size_t(i)], inv_n, dL, config_.colour_loss, glint).value;
+          const RayLoss l = pixel_loss(L, k, target[std::size_t(i)], inv_n, dL, config_.colour_loss, glint);
+          pixel_colour[std::size_t(i)] = l.colour;
+          return l.value;
         },
         grad, po, 0.0f, config_.clip_ior * inv_n);
+    if (totals) {
+      totals->colour = 0.0;
+      for (double c : pixel_colour) totals->colour += c * double(inv_n);
+      totals->rays = std::int64_t(rays.size());
+    }
     return grad;
   }
+
+  // For its lifetime the scene differentiates the IoR and the absorption as
+  // asked and nothing else; its flags as they were afterwards, whatever is
+  // thrown.
+  class DifferentiateOnly {
+   public:
+    DifferentiateOnly(HostScene& scene, bool ior, bool absorption) : scene_(scene) {
+      std::copy(std::begin(scene.differentiate), std::end(scene.differentiate), saved_);
+      for (bool& d : scene.differentiate) d = false;
+      scene.differentiate[param_ior] = ior;
+      scene.differentiate[param_absorption] = absorption;
+    }
+    ~DifferentiateOnly() { std::copy(std::begin(saved_), std::end(saved_), scene_.differentiate); }
+    DifferentiateOnly(const DifferentiateOnly&) = delete;
+    DifferentiateOnly& operator=(const DifferentiateOnly&) = delete;
+
+   private:
+    HostScene& scene_;
+    bool saved_[param_count];
+  };
 
   // The factor of the material rates at iteration it: 1, then a cosine from
   // 1 to anneal_floor over the last anneal_fraction of the iterations (not
@@ -2139,11 +2171,7 @@ class Stage2 {
   // at lr_ior when ior_moves; their own optimizer moments. `level` draws the
   // batches: -1 none, 0 homogeneous, then the grids' levels.
   void fit_candidate(bool ior_moves, int level) {
-    bool differentiate[param_count];
-    std::copy(std::begin(scene_.differentiate), std::end(scene_.differentiate), differentiate);
-    for (bool& d : scene_.differentiate) d = false;
-    scene_.differentiate[param_ior] = ior_moves && config_.optimize_ior;
-    scene_.differentiate[param_absorption] = true;
+    const DifferentiateOnly only(scene_, ior_moves && config_.optimize_ior, true);
     optim::Adam ior_adam(1), absorption_adam(scene_.absorption_raw.size());
     const bool grid = scene_.absorption_kind == scene::AbsorptionKind::grid;
     for (int i = 0; i < config_.selection_iterations; ++i) {
@@ -2161,7 +2189,6 @@ class Stage2 {
         if (!std::isfinite(g)) g = 0.0f;
       absorption_adam.step(scene_.absorption_raw.data(), grad.absorption.data(), config_.selection_lr_absorption);
     }
-    std::copy(std::begin(differentiate), std::end(differentiate), scene_.differentiate);
   }
 
   // The start of the absorption, per channel: the σ at which the object's
@@ -2343,61 +2370,22 @@ class Stage2 {
   // Stage2Config::materials_pass_rays: the IoR's and the absorption's
   // gradient at iteration `it` from a batch of their own, drawn (from a
   // generator of its own, fixed by the seed and the iteration) and scored
-  // as in the materials' iterations, under the sharp sky, the vertices held.
-  struct MaterialsPass {
-    std::vector<float> ior, absorption;
-    double color = 0.0, seconds = 0.0;
-    std::int64_t rays = 0;
-  };
-  MaterialsPass materials_pass(int it, bool ior, bool absorption) {
-    const auto t0 = std::chrono::steady_clock::now();
+  // as in the materials' iterations (batch_gradient), under the sharp sky,
+  // the vertices held.
+  SceneGradient materials_pass(int it, bool ior, bool absorption, BatchTotals& totals) {
     std::mt19937_64 rng(batch_generator(it)() ^ 0x6D6174657269616Cull);
-    std::vector<BatchRay> rays;
-    std::vector<Vec3f> target;
-    draw_batch(rng, rays, target, false, config_.materials_pass_rays);
-    const float glint = glint_level(target, config_.glint_factor);
-    const std::vector<float> weight = pixel_weights(target, false, glint);
-    const float inv_n = 1.0f / float(std::max<std::size_t>(1, target.size()));
-    const int k = std::max(1, config_.pixel_samples);
-    const losses::ColourLoss kind = colour_loss_of(false);
-    // the sharp sky in place of the blurred one, and only the materials differentiated
-    const bool swap_sky = environment_blur_ > 0.0f && !sharp_environment_.empty();
-    if (swap_sky) std::swap(scene_.environment, sharp_environment_);
-    bool saved[param_count];
-    std::copy(std::begin(scene_.differentiate), std::end(scene_.differentiate), saved);
-    for (bool& d : scene_.differentiate) d = false;
-    scene_.differentiate[param_ior] = ior;
-    scene_.differentiate[param_absorption] = absorption;
-    SceneGradient grad(scene_);
-    PassOptions po;
-    po.trace = config_.trace;
-    po.trace.gradient_refractions = 0;
-    po.trace.gradient_depth = 0;
-    std::vector<double> colour(target.size(), 0.0);
-    try {
-      group_gradient(
-          rays, k,
-          [&](std::int64_t i, const Vec3f* L, Vec3f* dL) {
-            const std::size_t p = std::size_t(i);
-            const RayLoss l = group_loss(L, k, &target[p], false, inv_n * weight[p], dL, kind, glint);
-            colour[p] = l.colour;
-            return l.value;
-          },
-          grad, po, 0.0f, config_.clip_ior * inv_n);
-    } catch (...) {
-      std::copy(std::begin(saved), std::end(saved), scene_.differentiate);
-      if (swap_sky) std::swap(scene_.environment, sharp_environment_);
-      throw;
-    }
-    std::copy(std::begin(saved), std::end(saved), scene_.differentiate);
-    if (swap_sky) std::swap(scene_.environment, sharp_environment_);
-    MaterialsPass r;
-    r.ior = std::move(grad.ior);
-    r.absorption = std::move(grad.absorption);
-    for (double c : colour) r.color += c * double(inv_n);
-    r.rays = std::int64_t(rays.size());
-    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    return r;
+    // the sharp sky in place of the blurred one (swapped, not rebuilt), back after the pass
+    struct SharpSky {
+      std::vector<float>& scene;
+      std::vector<float>& sharp;
+      bool swapped;
+      ~SharpSky() {
+        if (swapped) std::swap(scene, sharp);
+      }
+    } sky{scene_.environment, sharp_environment_, environment_blur_ > 0.0f && !sharp_environment_.empty()};
+    if (sky.swapped) std::swap(scene_.environment, sharp_environment_);
+    const DifferentiateOnly only(scene_, ior, absorption);
+    return batch_gradient(rng, config_.materials_pass_rays, &totals);
   }
 
   // The first iteration after the vertices' phase (0 without one).
