@@ -34,7 +34,7 @@ args=(-S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DDIFFTRANS_CUD
 [ -n "$prefix" ] && args+=(-DCMAKE_PREFIX_PATH="$prefix")
 t0=$(date +%s)
 cmake "${args[@]}" >"$logs/configure.txt" 2>&1 || { tail -30 "$logs/configure.txt"; exit 1; }
-targets=${TARGETS:-test_cuda_launch test_cuda_render test_cuda_render_kernels test_cuda_host_launch bench_device_speed difftrans_command equal_quality}
+targets=${TARGETS:-test_cuda_launch test_cuda_render test_cuda_render_kernels test_cuda_host_launch test_cuda_tree_gradient bench_device_speed difftrans_command equal_quality}
 # shellcheck disable=SC2086
 cmake --build "$build" --target $targets >"$logs/build.txt" 2>&1 || { grep -B2 -A12 "error" "$logs/build.txt" | head -80; exit 1; }
 echo "gpu_check: configured and built in $(( $(date +%s) - t0 )) s; warnings: $(grep -c 'warning' "$logs/build.txt")"
@@ -47,7 +47,7 @@ for step in ${STEPS:-tests command bench syntax}; do
   fi
   case $step in
     tests)
-      for t in test_cuda_launch test_cuda_render_kernels test_cuda_host_launch test_cuda_render; do
+      for t in test_cuda_launch test_cuda_render_kernels test_cuda_host_launch test_cuda_tree_gradient test_cuda_render; do
         exe=$(find "$build/tests" -name "$t" -type f | head -1)
         [ -z "$exe" ] && { echo "gpu_check: $t not built"; status=1; continue; }
         s=$(date +%s)

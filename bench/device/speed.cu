@@ -2,7 +2,8 @@
 // one view, the primal image (render_image: the wavefront with its registers
 // capped, the default; without the cap as device_primal_uncapped; a thread
 // per pixel as device_primal_per_pixel) and the gradient (render_gradient,
-// dLoss/dpixel = 1) on the GPU and on the host thread pool (its size from
+// dLoss/dpixel = 1: branches as work items, the default; a thread per pixel
+// as device_gradient_per_pixel) on the GPU and on the host thread pool (its size from
 // DIFFTRANS_THREADS), with rays and segments per second. Prints one JSON line
 // per mesh; scripts/gpu_check.sh runs it with all cores and with 2 threads.
 //
@@ -76,11 +77,12 @@ int main(int argc, char** argv) {
       dc::PassOptions opt;
       opt.trace = trace;
       opt.samples_per_axis = n;
-      dc::PassOptions per_pixel = opt, uncapped = opt;
+      dc::PassOptions per_pixel = opt, uncapped = opt, pixel_gradient = opt;
       per_pixel.wavefront = false;
       uncapped.wavefront_capped = false;
-      dc::DevicePassStats ps, gs, pps, ups;
-      double primal_ms = 1e300, gradient_ms = 1e300, pixel_ms = 1e300, uncapped_ms = 1e300;
+      pixel_gradient.tree_gradient = false;
+      dc::DevicePassStats ps, gs, pps, ups, pgs;
+      double primal_ms = 1e300, gradient_ms = 1e300, pixel_ms = 1e300, uncapped_ms = 1e300, pixel_gradient_ms = 1e300;
       const std::vector<float> adjoint(std::size_t(size) * std::size_t(size) * 3, 1.0f);
       dc::render_image(ds, cam, opt, &ps);  // warm-up
       for (int r = 0; r < repeats; ++r) {
@@ -93,6 +95,9 @@ int main(int argc, char** argv) {
         dr::SceneGradient grad(s);
         dc::render_gradient(ds, cam, adjoint.data(), grad, opt, &gs);
         gradient_ms = std::min(gradient_ms, gs.milliseconds);
+        dr::SceneGradient pgrad(s);
+        dc::render_gradient(ds, cam, adjoint.data(), pgrad, pixel_gradient, &pgs);
+        pixel_gradient_ms = std::min(pixel_gradient_ms, pgs.milliseconds);
       }
       std::printf(", \"device_primal_ms\": %.4f, \"device_gradient_ms\": %.4f, \"device_primal_Mrays_s\": %.2f,"
                   " \"device_primal_Msegments_s\": %.2f, \"device_gradient_Msegments_s\": %.2f,"
@@ -104,6 +109,11 @@ int main(int argc, char** argv) {
                   " \"device_primal_uncapped_Msegments_s\": %.2f",
                   ps.wavefront.launches, pixel_ms, double(pps.segments) / pixel_ms * 1e-3, uncapped_ms,
                   double(ups.segments) / uncapped_ms * 1e-3);
+      std::printf(", \"device_gradient_tree_launches\": %d, \"device_gradient_tree_waves\": %d,"
+                  " \"device_gradient_tree_redone\": %lld, \"device_gradient_longest_tape\": %u,"
+                  " \"device_gradient_per_pixel_ms\": %.4f, \"device_gradient_per_pixel_Msegments_s\": %.2f",
+                  gs.tree.launches, gs.tree.waves, (long long)gs.tree.redone, gs.max_tape_nodes, pixel_gradient_ms,
+                  double(pgs.segments) / pixel_gradient_ms * 1e-3);
     }
     std::printf("}\n");
     std::fflush(stdout);

@@ -241,45 +241,62 @@ int compare_case(const Case& c) {
   std::vector<float> adjoint(host.size());
   for (std::size_t i = 0; i < adjoint.size(); ++i)
     adjoint[i] = excluded[i / 3] ? 0.0f : 0.5f + 0.5f * std::sin(0.37f * float(i));
-  dr::SceneGradient dg(s), hg(s), hg1(s), hg2(s);
-  dc::DevicePassStats gst;
-  dc::render_gradient(ds, cam, adjoint.data(), dg, opt, &gst);
+  dr::SceneGradient hg(s), hg1(s), hg2(s);
   t0 = std::chrono::steady_clock::now();
   const int host_max_tape = dt_test::host_render_gradient(s, cam, adjoint.data(), hg, trace, c.samples_per_axis);
   const double host_gradient_seconds = seconds_since(t0);
   dt_test::host_render_gradient(s, camera(c.size, 1), adjoint.data(), hg1, trace, c.samples_per_axis);
   dt_test::host_render_gradient(s, camera(c.size, 2), adjoint.data(), hg2, trace, c.samples_per_axis);
-  std::printf("  gradient: %zu pixels excluded (%.3f%%); device %.3f ms (%.1f M segments/s, %d waves of %lld threads,"
-              " %lld pixels redone, %lld dropped, longest tape %u; host %d), host %.3f s\n",
-              count(excluded), 100.0 * double(count(excluded)) / double(pixels), gst.milliseconds,
-              double(gst.segments) / gst.milliseconds * 1e-3, gst.waves.waves, (long long)gst.waves.slots,
-              (long long)gst.waves.redone_pixels, (long long)gst.waves.dropped_pixels, gst.max_tape_nodes,
-              host_max_tape, host_gradient_seconds);
-  check.expect(gst.waves.dropped_pixels == 0, "Var: no pixel lost part of its gradient", double(gst.waves.dropped_pixels),
-               0.0);
-  const auto gradient_check = [&](const char* what, const std::vector<float>& d, const std::vector<float>& h,
-                                  const std::vector<float>& h1, const std::vector<float>& h2, bool checked) {
-    const double self = std::max(l2_distance(h1, h), l2_distance(h2, h));
-    const double limit = 2 * self + 1e-3 * l2_norm(h);
-    std::printf("  %s: |device - host| %.4g, |moved - host| %.4g, |host| %.4g%s\n", what, l2_distance(d, h), self,
-                l2_norm(h), checked ? "" : " (not checked: see below)");
-    if (checked) check.expect(l2_distance(d, h) <= limit, what, l2_distance(d, h), limit);
-  };
-  // Beyond depth 8 the IoR's and the vertices' gradients are not defined to
-  // float precision on the host either: one ulp of the eye moves dL/dIoR by
-  // 60% and dL/dpositions by 1.3 to 2.3 times its norm here (spot 512², depth
-  // 16, 4 spp), by 7 and 62 times at 128² with one sample
-  // (tests/render/rounding_sensitivity.test.cpp; bench/conditioning over
-  // depths): a few rays deep in total internal reflection carry them. The
-  // device (run on an H100) lands ten times further off than the two moved
-  // eyes there, as a third rounding of a heavy-tailed sum would; the
-  // absorption and environment gradients agree to 1e-4 at the same depth and
-  // stay checked.
-  const bool well_posed = c.depth <= 8;
-  gradient_check("Var: dL/dIoR", dg.ior, hg.ior, hg1.ior, hg2.ior, well_posed);
-  gradient_check("Var: dL/dpositions", dg.positions, hg.positions, hg1.positions, hg2.positions, well_posed);
-  gradient_check("Var: dL/dabsorption", dg.absorption, hg.absorption, hg1.absorption, hg2.absorption, true);
-  gradient_check("Var: dL/denvironment", dg.environment, hg.environment, hg1.environment, hg2.environment, true);
+  std::printf("  gradient: %zu pixels excluded (%.3f%%); host %.3f s, longest tape %d\n", count(excluded),
+              100.0 * double(count(excluded)) / double(pixels), host_gradient_seconds, host_max_tape);
+  // both device reverse passes: branches as work items (the default), a thread per pixel
+  for (const bool tree : {true, false}) {
+    const char* name = tree ? "tree" : "per pixel";
+    dc::PassOptions gopt = opt;
+    gopt.tree_gradient = tree;
+    dr::SceneGradient dg(s);
+    dc::DevicePassStats gst;
+    const std::vector<float> gimage = dc::render_gradient(ds, cam, adjoint.data(), dg, gopt, &gst);
+    std::printf("  gradient (%s): device %.3f ms (%.1f M segments/s, %d waves of %lld, %lld redone, %lld dropped,"
+                " longest tape %u; tree: %d launches, %lld branches)\n",
+                name, gst.milliseconds, double(gst.segments) / gst.milliseconds * 1e-3, gst.waves.waves,
+                (long long)gst.waves.slots, (long long)gst.waves.redone_pixels, (long long)gst.waves.dropped_pixels,
+                gst.max_tape_nodes, gst.tree.launches, (long long)gst.tree.branches);
+    check.expect(gst.waves.dropped_pixels == 0, "Var: no pixel or branch lost part of its gradient",
+                 double(gst.waves.dropped_pixels), 0.0);
+    // the image the reverse pass writes is the device image, up to the order of the sums
+    double worst_image = 0;
+    for (std::size_t i = 0; i < dev.size(); ++i)
+      worst_image = std::max(worst_image, std::abs(double(gimage[i]) - dev[i]) / (1e-3 + std::abs(double(dev[i]))));
+    // (the tree's image comes from the same float steps as the device image;
+    // the per-pixel pass computes its values in Var, where nvcc may fuse
+    // other multiplies and adds: printed only)
+    std::printf("  gradient (%s): image against the device image: %.3g relative at most\n", name, worst_image);
+    if (tree) check.expect(worst_image < 1e-4, "Var: its image equals the device image", worst_image, 1e-4);
+    const auto gradient_check = [&](const char* what, const std::vector<float>& d, const std::vector<float>& h,
+                                    const std::vector<float>& h1, const std::vector<float>& h2, bool checked) {
+      const double self = std::max(l2_distance(h1, h), l2_distance(h2, h));
+      const double limit = 2 * self + 1e-3 * l2_norm(h);
+      std::printf("  %s (%s): |device - host| %.4g, |moved - host| %.4g, |host| %.4g%s\n", what, name,
+                  l2_distance(d, h), self, l2_norm(h), checked ? "" : " (not checked: see below)");
+      if (checked) check.expect(l2_distance(d, h) <= limit, what, l2_distance(d, h), limit);
+    };
+    // Beyond depth 8 the IoR's and the vertices' gradients are not defined to
+    // float precision on the host either: one ulp of the eye moves dL/dIoR by
+    // 60% and dL/dpositions by 1.3 to 2.3 times its norm here (spot 512², depth
+    // 16, 4 spp), by 7 and 62 times at 128² with one sample
+    // (tests/render/rounding_sensitivity.test.cpp; bench/conditioning over
+    // depths): a few rays deep in total internal reflection carry them. The
+    // device (run on an H100) lands ten times further off than the two moved
+    // eyes there, as a third rounding of a heavy-tailed sum would; the
+    // absorption and environment gradients agree to 1e-4 at the same depth and
+    // stay checked.
+    const bool well_posed = c.depth <= 8;
+    gradient_check("Var: dL/dIoR", dg.ior, hg.ior, hg1.ior, hg2.ior, well_posed);
+    gradient_check("Var: dL/dpositions", dg.positions, hg.positions, hg1.positions, hg2.positions, well_posed);
+    gradient_check("Var: dL/dabsorption", dg.absorption, hg.absorption, hg1.absorption, hg2.absorption, true);
+    gradient_check("Var: dL/denvironment", dg.environment, hg.environment, hg1.environment, hg2.environment, true);
+  }
   return check.failures;
 }
 
@@ -300,7 +317,9 @@ int compare_local_tapes() {
   dr::SceneGradient local(s), pooled(s);
   dc::DevicePassStats ls, ps;
   dc::render_gradient<4096, 512>(ds, cam, adjoint.data(), local, opt, &ls);
-  dc::render_gradient(ds, cam, adjoint.data(), pooled, opt, &ps);
+  dc::PassOptions pooled_opt = opt;
+  pooled_opt.tree_gradient = false;
+  dc::render_gradient(ds, cam, adjoint.data(), pooled, pooled_opt, &ps);
   // the same kernel body on the same device: only the order of the atomic adds differs
   const double rel_lp = relative_l2(local.positions, pooled.positions);
   const bool ok = ls.overflowed_rays == 0 && ps.waves.dropped_pixels == 0 && rel_lp <= 1e-5 &&

@@ -1,5 +1,6 @@
 // The host twin of the device passes: the kernels of cuda/render_kernels.hpp
-// (and the wavefront image of cuda/wavefront.hpp) launched on the thread pool instead of a CUDA grid, with the device's
+// (and the wavefront image of cuda/wavefront.hpp, the tree gradient of
+// cuda/tree_gradient.hpp) launched on the thread pool instead of a CUDA grid, with the device's
 // schedule (run_gradient_waves: waves of tapes cut from one pool, pixels
 // whose tape overflowed taken back and redone on longer tapes, gradients
 // accumulated with atomic adds). Whatever in a device pass depends on the
@@ -17,6 +18,7 @@
 #include "difftrans/core/parallel.hpp"
 #include "difftrans/cuda/ray_groups.hpp"
 #include "difftrans/cuda/render_kernels.hpp"
+#include "difftrans/cuda/tree_gradient.hpp"
 #include "difftrans/cuda/wavefront.hpp"
 #include "difftrans/render/host_scene.hpp"
 
@@ -102,6 +104,32 @@ inline std::vector<float> twin_render_gradient(const render::HostScene& s, const
     be.read_counters(stats->counters);
     stats->waves = waves;
   }
+  return image;
+}
+
+// The device reverse pass with branches as work items (run_tree_gradient) on
+// host threads, over the portable BVH `bvh` of the scene's mesh: adds
+// dLoss/dparameter to `grad` given dLoss/dpixel; returns the image.
+// LocalCapacity / LocalLog: the tape each branch's replay has first.
+template <int LocalCapacity = 512, int LocalLog = 64>
+std::vector<float> twin_render_tree_gradient(const render::HostScene& s, const accel::Bvh& bvh,
+                                             const scene::Camera& cam, const float* pixel_adjoint,
+                                             render::SceneGradient& grad, const render::TraceSettings& trace,
+                                             int samples_per_axis, const TreeSchedule& schedule,
+                                             TreeGradientRun* run = nullptr, std::uint32_t* counters = nullptr) {
+  const std::int64_t pixels = std::int64_t(cam.width) * cam.height;
+  std::vector<float> image(std::size_t(pixels) * 3, 0.0f);
+  HostLaunch be;
+  ad::ParamSet params = s.params();
+  grad.attach(params);
+  PixelJob job = pixel_job(s.view(true, true), bvh.view(), cam, trace, &params, samples_per_axis);
+  job.image = image.data();
+  job.pixel_adjoint = pixel_adjoint;
+  job.counters = be.counters();
+  const TreeGradientRun r = run_tree_gradient<LocalCapacity, LocalLog>(be, job, pixels, schedule);
+  grad.fold_normals(s);
+  if (run) *run = r;
+  if (counters) be.read_counters(counters);
   return image;
 }
 

@@ -18,6 +18,7 @@
 #include "difftrans/cuda/launch.cuh"
 #include "difftrans/cuda/ray_groups.hpp"
 #include "difftrans/cuda/render_kernels.hpp"
+#include "difftrans/cuda/tree_gradient.hpp"
 #include "difftrans/cuda/wavefront.hpp"
 #include "difftrans/render/host_scene.hpp"
 
@@ -138,6 +139,14 @@ struct PassOptions {
   // or as the compiler likes.
   bool wavefront_capped = true;
   WavefrontSchedule wavefront_schedule;
+  // The gradient: branches as work items (cuda/tree_gradient.hpp: the trees
+  // grown in float, then each branch's interaction replayed on a tape of its
+  // own, depth by depth from the deepest), or, false, a thread per pixel
+  // streaming its whole trees on one tape (run_gradient_waves, `schedule`).
+  bool tree_gradient = true;
+  // tree_schedule.capacity = 0: as many branches as a quarter of the device
+  // memory free when the pass starts holds, at most 2^26
+  TreeSchedule tree_schedule = {0, {1 << 13, 1 << 10, 1 << 21, 0}};
 };
 
 // The image (value) and its derivative along a direction.
@@ -149,9 +158,12 @@ struct DevicePassStats {
   std::uint64_t rays = 0, segments = 0, hits = 0;
   std::uint64_t overflowed_rays = 0;  // Var: rays that overflowed a tape on some try
   std::uint32_t max_tape_nodes = 0;
-  GradientWaves waves;                // Var: the schedule run_gradient_waves followed
+  GradientWaves waves;                // Var: the schedule run_gradient_waves followed (the tree gradient:
+                                      // its waves, branches redone on pooled tapes, branches dropped)
+  TreeGradientRun tree;               // Var with PassOptions::tree_gradient: what run_tree_gradient did
   WavefrontRun wavefront;             // the image with branches as work items: its launches
-  double milliseconds = 0;            // kernel time (CUDA events); the wavefront image: wall time of its launches
+  double milliseconds = 0;            // kernel time (CUDA events); the wavefront image and the tree gradient:
+                                      // wall time of their launches
 };
 
 namespace detail {
@@ -361,7 +373,9 @@ inline ImageDerivative render_derivative(const DeviceScene& ds, const scene::Cam
 }
 
 // Adds to `grad` dLoss/dparameter given dLoss/dpixel (host, width·height·3),
-// as render::render_gradient. Returns the image. Tapes: LocalTapeCapacity = 0
+// as render::render_gradient. Returns the image. By default
+// (opt.tree_gradient) the branches are the work items: run_tree_gradient,
+// stats->tree. Otherwise a thread per pixel; its tapes: LocalTapeCapacity = 0
 // (default) cuts them from device buffers, scheduled by run_gradient_waves
 // (waves of as many threads as opt.schedule.tape_memory holds; pixels whose
 // tape overflowed are redone on longer tapes; stats->waves.dropped_pixels
@@ -390,11 +404,28 @@ std::vector<float> render_gradient(const DeviceScene& ds, const scene::Camera& c
   job.pixel_adjoint = adjoint->data();
   job.counters = be.counters();
   GradientWaves waves;
+  TreeGradientRun tree;
   if constexpr (LocalTapeCapacity > 0) {
     be.launch(pixels, GradientPixel<LocalTapeCapacity, LocalLogCapacity>{job});
     waves.waves = 1;
     waves.slots = pixels;
     waves.final_capacity = LocalTapeCapacity;
+  } else if (opt.tree_gradient) {
+    const std::vector<float> zeros(n, 0.0f);
+    image.upload(zeros.data());  // the replays add their light into it
+    TreeSchedule schedule = opt.tree_schedule;
+    if (schedule.capacity == 0)
+      schedule.capacity = std::min<std::int64_t>(std::int64_t(1) << 26,
+                                                 std::int64_t(DeviceLaunch::half_free_memory() / 2 / sizeof(TreeBranch)));
+    if (schedule.redo.tape_memory == 0) schedule.redo.tape_memory = DeviceLaunch::half_free_memory() / 4;
+    const auto t0 = std::chrono::steady_clock::now();
+    tree = run_tree_gradient(be, job, pixels, schedule);
+    // the wall time of the launches and the counts read back between them
+    be.milliseconds = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    waves.waves = tree.waves;
+    waves.slots = tree.largest_wave;
+    waves.redone_pixels = tree.redone;
+    waves.dropped_pixels = tree.dropped;
   } else {
     GradientSchedule schedule = opt.schedule;
     if (schedule.tape_memory == 0) schedule.tape_memory = DeviceLaunch::half_free_memory();
@@ -409,6 +440,7 @@ std::vector<float> render_gradient(const DeviceScene& ds, const scene::Camera& c
     stats->overflowed_rays = c[counter_overflow];
     stats->max_tape_nodes = c[counter_max_tape];
     stats->waves = waves;
+    stats->tree = tree;
     stats->milliseconds = be.milliseconds;
   }
   d_grads.add_to();
