@@ -73,6 +73,7 @@ TEST_CASE("the device's reverse schedule, on host threads, at the command's size
     render::SceneGradient ref(s);
     ad::ParamSet params = s.params();
     ref.attach(params);
+    const cuda::WideGradients wide(params);  // summed as the device sums (the IoR, the absorption in double)
     std::uint32_t counters[cuda::counter_count] = {};
     cuda::PixelJob job;
     job.scene = s.view(true, true);
@@ -83,6 +84,7 @@ TEST_CASE("the device's reverse schedule, on host threads, at the command's size
     job.pixel_adjoint = adjoint.data();
     job.counters = counters;
     plain_gradient(job, pixels);
+    wide.add_to();
     ref.fold_normals(s);
     REQUIRE(counters[cuda::counter_overflow] == 0);
     const std::uint32_t longest = counters[cuda::counter_max_tape];

@@ -26,6 +26,13 @@ struct ParamBuffer {
   const float* values = nullptr;
   std::int32_t size = 0;
   float* gradient = nullptr;                            // reverse mode: adjoints are added here
+  // Reverse mode: when set, adjoints are added here instead, in double. For
+  // a small buffer that receives millions of adds (the IoR, a few absorption
+  // values) a float sum loses the low bits of each add the same way every
+  // time: on a grid-absorbing sphere at 512², depth 4, dL/dIoR summed per
+  // branch in float lands 7e-4 off its double sum, a bias, not noise
+  // (docs/cuda.md, "Summing the gradient").
+  double* wide_gradient = nullptr;
   const float* tangents[max_tangent_lanes] = {nullptr};  // forward mode: lane l direction, or null (0)
 };
 
@@ -46,6 +53,13 @@ DT_HOST_DEVICE inline void atomic_add(T* p, T v) {
     desired = expected + v;
   } while (!__atomic_compare_exchange(p, &expected, &desired, true, __ATOMIC_RELAXED, __ATOMIC_RELAXED));
 #endif
+}
+// Adds one adjoint into a buffer's gradient: its wide (double) array when it
+// has one, otherwise its float array; nothing without either.
+template <class T>
+DT_HOST_DEVICE inline void add_gradient(const ParamBuffer& b, std::int32_t index, T a) {
+  if (b.wide_gradient) atomic_add(b.wide_gradient + index, double(a));
+  else if (b.gradient) atomic_add(b.gradient + index, float(a));
 }
 }  // namespace detail
 
@@ -108,9 +122,8 @@ class ParamReader<Var<T>> {
   DT_HOST_DEVICE void scatter(T scale = T(1)) {
     for (std::int32_t k = 0; k < count_; ++k) {
       const LeafRecord& r = log_[k];
-      float* g = set_->buffers[r.buffer].gradient;
       const T a = tape_->adjoint(Var<T>(T(0), r.node, tape_));
-      if (g && a != T(0)) detail::atomic_add(g + r.index, float(a * scale));
+      if (a != T(0)) detail::add_gradient(set_->buffers[r.buffer], r.index, a * scale);
     }
     count_ = 0;
   }
@@ -122,9 +135,8 @@ class ParamReader<Var<T>> {
     std::int32_t k = count_;
     while (k > 0 && log_[k - 1].node >= mark) {
       const LeafRecord& r = log_[--k];
-      float* g = set_->buffers[r.buffer].gradient;
       const T a = tape_->adjoint(Var<T>(T(0), r.node, tape_));
-      if (g && a != T(0)) detail::atomic_add(g + r.index, float(a));
+      if (a != T(0)) detail::add_gradient(set_->buffers[r.buffer], r.index, a);
     }
     count_ = k;
   }
@@ -145,9 +157,8 @@ class ParamReader<Var<T>> {
   DT_HOST_DEVICE void scatter_scaled(const T* scale_per_buffer) {
     for (std::int32_t k = 0; k < count_; ++k) {
       const LeafRecord& r = log_[k];
-      float* g = set_->buffers[r.buffer].gradient;
       const T a = tape_->adjoint(Var<T>(T(0), r.node, tape_));
-      if (g && a != T(0)) detail::atomic_add(g + r.index, float(a * scale_per_buffer[r.buffer]));
+      if (a != T(0)) detail::add_gradient(set_->buffers[r.buffer], r.index, a * scale_per_buffer[r.buffer]);
     }
     count_ = 0;
   }

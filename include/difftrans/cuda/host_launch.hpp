@@ -94,11 +94,13 @@ inline std::vector<float> twin_render_gradient(const render::HostScene& s, const
   HostLaunch be;
   ad::ParamSet params = s.params();
   grad.attach(params);
+  const WideGradients wide(params);
   PixelJob job = pixel_job(s.view(true, true), bvh.view(), cam, trace, &params, samples_per_axis);
   job.image = image.data();
   job.pixel_adjoint = pixel_adjoint;
   job.counters = be.counters();
   const GradientWaves waves = run_gradient_waves(be, job, pixels, schedule);
+  wide.add_to();
   grad.fold_normals(s);
   if (stats) {
     be.read_counters(stats->counters);
@@ -122,11 +124,13 @@ std::vector<float> twin_render_tree_gradient(const render::HostScene& s, const a
   HostLaunch be;
   ad::ParamSet params = s.params();
   grad.attach(params);
+  const WideGradients wide(params);
   PixelJob job = pixel_job(s.view(true, true), bvh.view(), cam, trace, &params, samples_per_axis);
   job.image = image.data();
   job.pixel_adjoint = pixel_adjoint;
   job.counters = be.counters();
   const TreeGradientRun r = run_tree_gradient<LocalCapacity, LocalLog>(be, job, pixels, schedule);
+  wide.add_to();
   grad.fold_normals(s);
   if (run) *run = r;
   if (counters) be.read_counters(counters);
@@ -148,6 +152,7 @@ RayGroupRun twin_ray_group_gradient(const render::HostScene& s, const accel::Bvh
   HostLaunch be;
   ad::ParamSet params = s.params();
   grad.attach(params);
+  const WideGradients wide(params);
   RayJob job;
   job.scene = s.view(true, true);
   job.bvh = bvh.view();
@@ -158,6 +163,7 @@ RayGroupRun twin_ray_group_gradient(const render::HostScene& s, const accel::Bvh
   const std::int64_t n = std::int64_t(rays.size() / 6);
   std::vector<float> L(std::size_t(n) * 3, 0.0f);
   const RayGroupRun run = run_ray_groups(be, job, rays.data(), n, loss, schedule, L.data());
+  wide.add_to();
   grad.fold_normals(s);
   if (radiance) *radiance = std::move(L);
   return run;

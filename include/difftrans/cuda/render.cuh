@@ -272,7 +272,8 @@ inline PixelJob make_job(const DeviceScene& ds, bool ad, bool reverse, const sce
 }
 
 // Zeroed device gradient buffers for every parameter of a scene, set into a
-// parameter set; add_to() adds them into the host gradient afterwards.
+// parameter set (the IoR's and the absorption's in double: sums_in_double);
+// add_to() adds them into the host gradient afterwards.
 class DeviceGradients {
  public:
   DeviceGradients(render::SceneGradient& grad, ad::ParamSet& set) {
@@ -285,19 +286,25 @@ class DeviceGradients {
       const std::vector<float> zeros(host_[b]->size(), 0.0f);
       device_.push_back(upload_vector(zeros));
       set.buffers[b].gradient = device_.back()->data();
+      const std::vector<double> wide_zeros(sums_in_double(b) ? host_[b]->size() : 0, 0.0);
+      wide_.push_back(upload_vector(wide_zeros));
+      if (!wide_zeros.empty()) set.buffers[b].wide_gradient = wide_.back()->data();
     }
   }
   void add_to() const {
     for (int b = 0; b < render::param_count; ++b) {
       std::vector<float> g(host_[b]->size());
       if (!g.empty()) device_[std::size_t(b)]->download(g.data());
-      for (std::size_t i = 0; i < g.size(); ++i) (*host_[b])[i] += g[i];
+      std::vector<double> w(wide_[std::size_t(b)]->size());
+      if (!w.empty()) wide_[std::size_t(b)]->download(w.data());
+      for (std::size_t i = 0; i < g.size(); ++i) (*host_[b])[i] += w.empty() ? g[i] : float(w[i]);
     }
   }
 
  private:
   std::vector<float>* host_[render::param_count] = {};
   std::vector<std::unique_ptr<DeviceBuffer<float>>> device_;
+  std::vector<std::unique_ptr<DeviceBuffer<double>>> wide_;
 };
 
 }  // namespace detail
