@@ -73,7 +73,7 @@ TEST_CASE("the device's reverse schedule, on host threads, at the command's size
     render::SceneGradient ref(s);
     ad::ParamSet params = s.params();
     ref.attach(params);
-    const cuda::WideGradients wide(params);  // summed as the device sums (the IoR, the absorption in double)
+    const render::DoubleSums wide(params);  // summed as the device sums (the IoR, the absorption in double)
     std::uint32_t counters[cuda::counter_count] = {};
     cuda::PixelJob job;
     job.scene = s.view(true, true);

@@ -20,6 +20,7 @@
 #include "difftrans/cuda/render_kernels.hpp"
 #include "difftrans/cuda/tree_gradient.hpp"
 #include "difftrans/cuda/wavefront.hpp"
+#include "difftrans/render/gradient_sums.hpp"
 #include "difftrans/render/host_scene.hpp"
 
 namespace difftrans::cuda {
@@ -94,7 +95,7 @@ inline std::vector<float> twin_render_gradient(const render::HostScene& s, const
   HostLaunch be;
   ad::ParamSet params = s.params();
   grad.attach(params);
-  const WideGradients wide(params);
+  const render::DoubleSums wide(params);
   PixelJob job = pixel_job(s.view(true, true), bvh.view(), cam, trace, &params, samples_per_axis);
   job.image = image.data();
   job.pixel_adjoint = pixel_adjoint;
@@ -124,7 +125,7 @@ std::vector<float> twin_render_tree_gradient(const render::HostScene& s, const a
   HostLaunch be;
   ad::ParamSet params = s.params();
   grad.attach(params);
-  const WideGradients wide(params);
+  const render::DoubleSums wide(params);
   PixelJob job = pixel_job(s.view(true, true), bvh.view(), cam, trace, &params, samples_per_axis);
   job.image = image.data();
   job.pixel_adjoint = pixel_adjoint;
@@ -152,7 +153,7 @@ RayGroupRun twin_ray_group_gradient(const render::HostScene& s, const accel::Bvh
   HostLaunch be;
   ad::ParamSet params = s.params();
   grad.attach(params);
-  const WideGradients wide(params);
+  const render::DoubleSums wide(params);
   RayJob job;
   job.scene = s.view(true, true);
   job.bvh = bvh.view();

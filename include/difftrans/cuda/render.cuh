@@ -20,6 +20,7 @@
 #include "difftrans/cuda/render_kernels.hpp"
 #include "difftrans/cuda/tree_gradient.hpp"
 #include "difftrans/cuda/wavefront.hpp"
+#include "difftrans/render/gradient_sums.hpp"
 #include "difftrans/render/host_scene.hpp"
 
 namespace difftrans::cuda {
@@ -272,7 +273,7 @@ inline PixelJob make_job(const DeviceScene& ds, bool ad, bool reverse, const sce
 }
 
 // Zeroed device gradient buffers for every parameter of a scene, set into a
-// parameter set (the IoR's and the absorption's in double: sums_in_double);
+// parameter set (the IoR's and the absorption's in double: render::sums_in_double);
 // add_to() adds them into the host gradient afterwards.
 class DeviceGradients {
  public:
@@ -286,7 +287,7 @@ class DeviceGradients {
       const std::vector<float> zeros(host_[b]->size(), 0.0f);
       device_.push_back(upload_vector(zeros));
       set.buffers[b].gradient = device_.back()->data();
-      const std::vector<double> wide_zeros(sums_in_double(b) ? host_[b]->size() : 0, 0.0);
+      const std::vector<double> wide_zeros(render::sums_in_double(b) ? host_[b]->size() : 0, 0.0);
       wide_.push_back(upload_vector(wide_zeros));
       if (!wide_zeros.empty()) set.buffers[b].wide_gradient = wide_.back()->data();
     }

@@ -12,11 +12,9 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
-#include <vector>
 
 #include "difftrans/accel/bvh.hpp"
 #include "difftrans/ad/ad.hpp"
-#include "difftrans/render/host_scene.hpp"
 #include "difftrans/render/pass_options.hpp"
 #include "difftrans/render/tracer.hpp"
 #include "difftrans/scene/camera.hpp"
@@ -51,35 +49,6 @@ inline PixelJob pixel_job(const render::SceneView& scene, const accel::BvhView& 
   job.samples_per_axis = samples_per_axis;
   return job;
 }
-
-// Whether a pass sums buffer b's gradient in double (ad::ParamBuffer::
-// wide_gradient): the IoR and the absorption, a few values that every ray
-// adds to. The device passes and their host twins alike.
-inline bool sums_in_double(int buffer) {
-  return buffer == render::param_ior || buffer == render::param_absorption;
-}
-
-// A buffer's double sums for the host twins of the device passes, set into
-// a parameter set where it has a float gradient; add_to() adds them into
-// that gradient afterwards.
-class WideGradients {
- public:
-  explicit WideGradients(ad::ParamSet& set) : set_(&set) {
-    for (int b = 0; b < render::param_count; ++b)
-      if (sums_in_double(b) && set.buffers[b].gradient && set.buffers[b].size > 0) {
-        sums_[b].assign(std::size_t(set.buffers[b].size), 0.0);
-        set.buffers[b].wide_gradient = sums_[b].data();
-      }
-  }
-  void add_to() const {
-    for (int b = 0; b < render::param_count; ++b)
-      for (std::size_t i = 0; i < sums_[b].size(); ++i) set_->buffers[b].gradient[i] += float(sums_[b][i]);
-  }
-
- private:
-  ad::ParamSet* set_;
-  std::vector<double> sums_[render::param_count];
-};
 
 // Counters a pass may ask for (atomically added).
 enum PixelCounter : int {

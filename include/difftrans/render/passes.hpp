@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "difftrans/core/parallel.hpp"
+#include "difftrans/render/gradient_sums.hpp"
 #include "difftrans/render/host_scene.hpp"
 #include "difftrans/render/pass_options.hpp"
 #include "difftrans/scene/camera.hpp"
@@ -139,6 +140,7 @@ std::vector<float> render_gradient(const HostScene& s, const scene::Camera& cam,
   const SceneView view = s.view(true, true);
   ad::ParamSet params = s.params();
   grad.attach(params);
+  const DoubleSums sums(params);  // the IoR's and the absorption's gradients summed in double
   ThreadPool& pool = ThreadPool::global();
   detail::StatsPerWorker st(pool.size());
   detail::WorkerTapes<T> tapes(pool.size(), opt);
@@ -161,6 +163,7 @@ std::vector<float> render_gradient(const HostScene& s, const scene::Camera& cam,
       if (tape->overflowed() || reader.overflowed()) ++ps.overflowed_rays;
     });
   });
+  sums.add_to();
   grad.fold_normals(s);
   if (stats) *stats = st.total();
   return image;
