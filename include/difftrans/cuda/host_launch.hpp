@@ -82,6 +82,34 @@ struct TwinGradientStats {
   GradientWaves waves;
 };
 
+namespace detail {
+
+// What the host twins of the two reverse passes share: the scene's
+// parameters with `grad` attached (the IoR and the absorption summed in
+// double, as on the device), a job over the portable BVH with the image,
+// dLoss/dpixel and the backend's counters; run(job, pixels) runs the pass.
+// Returns the image.
+template <class Run>
+std::vector<float> twin_reverse(HostLaunch& be, const render::HostScene& s, const accel::Bvh& bvh,
+                                const scene::Camera& cam, const float* pixel_adjoint, render::SceneGradient& grad,
+                                const render::TraceSettings& trace, int samples_per_axis, Run&& run) {
+  const std::int64_t pixels = std::int64_t(cam.width) * cam.height;
+  std::vector<float> image(std::size_t(pixels) * 3, 0.0f);
+  ad::ParamSet params = s.params();
+  grad.attach(params);
+  const render::DoubleSums sums(params);
+  PixelJob job = pixel_job(s.view(true, true), bvh.view(), cam, trace, &params, samples_per_axis);
+  job.image = image.data();
+  job.pixel_adjoint = pixel_adjoint;
+  job.counters = be.counters();
+  run(job, pixels);
+  sums.add_to();
+  grad.fold_normals(s);
+  return image;
+}
+
+}  // namespace detail
+
 // The device reverse pass (cuda::render_gradient) on host threads, over the
 // portable BVH `bvh` of the scene's mesh: adds dLoss/dparameter to `grad`
 // given dLoss/dpixel; returns the image.
@@ -90,19 +118,11 @@ inline std::vector<float> twin_render_gradient(const render::HostScene& s, const
                                                render::SceneGradient& grad, const render::TraceSettings& trace,
                                                int samples_per_axis, const GradientSchedule& schedule,
                                                TwinGradientStats* stats = nullptr) {
-  const std::int64_t pixels = std::int64_t(cam.width) * cam.height;
-  std::vector<float> image(std::size_t(pixels) * 3, 0.0f);
   HostLaunch be;
-  ad::ParamSet params = s.params();
-  grad.attach(params);
-  const render::DoubleSums wide(params);
-  PixelJob job = pixel_job(s.view(true, true), bvh.view(), cam, trace, &params, samples_per_axis);
-  job.image = image.data();
-  job.pixel_adjoint = pixel_adjoint;
-  job.counters = be.counters();
-  const GradientWaves waves = run_gradient_waves(be, job, pixels, schedule);
-  wide.add_to();
-  grad.fold_normals(s);
+  GradientWaves waves;
+  std::vector<float> image = detail::twin_reverse(
+      be, s, bvh, cam, pixel_adjoint, grad, trace, samples_per_axis,
+      [&](const PixelJob& job, std::int64_t pixels) { waves = run_gradient_waves(be, job, pixels, schedule); });
   if (stats) {
     be.read_counters(stats->counters);
     stats->waves = waves;
@@ -120,19 +140,12 @@ std::vector<float> twin_render_tree_gradient(const render::HostScene& s, const a
                                              render::SceneGradient& grad, const render::TraceSettings& trace,
                                              int samples_per_axis, const TreeSchedule& schedule,
                                              TreeGradientRun* run = nullptr, std::uint32_t* counters = nullptr) {
-  const std::int64_t pixels = std::int64_t(cam.width) * cam.height;
-  std::vector<float> image(std::size_t(pixels) * 3, 0.0f);
   HostLaunch be;
-  ad::ParamSet params = s.params();
-  grad.attach(params);
-  const render::DoubleSums wide(params);
-  PixelJob job = pixel_job(s.view(true, true), bvh.view(), cam, trace, &params, samples_per_axis);
-  job.image = image.data();
-  job.pixel_adjoint = pixel_adjoint;
-  job.counters = be.counters();
-  const TreeGradientRun r = run_tree_gradient<LocalCapacity, LocalLog>(be, job, pixels, schedule);
-  wide.add_to();
-  grad.fold_normals(s);
+  TreeGradientRun r;
+  std::vector<float> image = detail::twin_reverse(
+      be, s, bvh, cam, pixel_adjoint, grad, trace, samples_per_axis, [&](const PixelJob& job, std::int64_t pixels) {
+        r = run_tree_gradient<LocalCapacity, LocalLog>(be, job, pixels, schedule);
+      });
   if (run) *run = r;
   if (counters) be.read_counters(counters);
   return image;

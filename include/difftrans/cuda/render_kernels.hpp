@@ -168,6 +168,16 @@ DT_HOST_DEVICE inline bool gradient_pixel(const PixelJob& job, int pix, ad::Tape
 
 }  // namespace detail
 
+// A tape of Capacity nodes and a leaf log of LogCapacity entries in the
+// thread's own (local) memory.
+template <int Capacity, int LogCapacity>
+struct LocalTape {
+  static constexpr std::size_t bytes = Capacity * ad::Tape<float>::bytes_per_node + LogCapacity * sizeof(ad::LeafRecord);
+  ad::Node<float> nodes[Capacity];
+  float adjoints[Capacity];
+  ad::LeafRecord log[LogCapacity];
+};
+
 // Reverse mode with the tape (TapeCapacity nodes) and leaf log in the
 // thread's own local memory: simplest, for scenes whose rays record few
 // nodes (a ray through a grid-absorbing sphere at depth 5 records ~8000).
@@ -175,15 +185,12 @@ template <int TapeCapacity = 4096, int LogCapacity = 512>
 struct GradientPixel {
   PixelJob job;
 
-  static constexpr std::size_t tape_bytes =
-      TapeCapacity * ad::Tape<float>::bytes_per_node + LogCapacity * sizeof(ad::LeafRecord);
+  static constexpr std::size_t tape_bytes = LocalTape<TapeCapacity, LogCapacity>::bytes;
 
   DT_HOST_DEVICE void operator()(int pix) const {
-    ad::Node<float> nodes[TapeCapacity];
-    float adjoints[TapeCapacity];
-    ad::LeafRecord log[LogCapacity];
-    ad::Tape<float> tape(nodes, adjoints, TapeCapacity);
-    detail::gradient_pixel(job, pix, tape, log, LogCapacity);
+    LocalTape<TapeCapacity, LogCapacity> local;
+    ad::Tape<float> tape(local.nodes, local.adjoints, TapeCapacity);
+    detail::gradient_pixel(job, pix, tape, local.log, LogCapacity);
   }
 };
 

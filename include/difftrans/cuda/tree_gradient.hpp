@@ -180,16 +180,13 @@ struct ReplayBranchStep {
   std::int64_t first = 0;
   std::int32_t* overflow_list = nullptr;
 
-  static constexpr std::size_t tape_bytes =
-      TapeCapacity * ad::Tape<float>::bytes_per_node + LogCapacity * sizeof(ad::LeafRecord);
+  static constexpr std::size_t tape_bytes = LocalTape<TapeCapacity, LogCapacity>::bytes;
 
   DT_HOST_DEVICE void operator()(int i) const {
-    ad::Node<float> nodes[TapeCapacity];
-    float adjoints[TapeCapacity];
-    ad::LeafRecord log[LogCapacity];
-    ad::Tape<float> tape(nodes, adjoints, TapeCapacity);
+    LocalTape<TapeCapacity, LogCapacity> local;
+    ad::Tape<float> tape(local.nodes, local.adjoints, TapeCapacity);
     const std::int64_t b = first + i;
-    if (!detail::replay_branch(tree, b, tape, log, LogCapacity, true))
+    if (!detail::replay_branch(tree, b, tape, local.log, LogCapacity, true))
       detail::list_overflow(tree.job.counters, overflow_list, std::int32_t(b));
   }
 };
