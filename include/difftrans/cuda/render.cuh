@@ -1,9 +1,13 @@
 // The tracer on the GPU: a HostScene and its portable BVH uploaded to device
 // buffers, and the passes of render/passes.hpp (image, directional derivative
 // with Dual<float, 1>, gradient with Var<float>) as CUDA launches of the
-// per-pixel kernels in cuda/render_kernels.hpp. Compiled only by nvcc.
+// kernels in cuda/render_kernels.hpp, cuda/wavefront.hpp and
+// cuda/tree_gradient.hpp. Compiled only by nvcc.
 // (render/passes.hpp is not included: its host passes instantiate the tracer
 // with EmbreeScene, which nvcc would warn about in every device TU.)
+// Length: the device scene, the launch backend, the gradient buffers and the
+// passes that share them; each pass is a short wrapper around a schedule
+// written, once for the device and its host twin, in the headers above.
 #pragma once
 
 #include <chrono>
