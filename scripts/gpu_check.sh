@@ -5,7 +5,10 @@
 # build/gpu/logs).
 #
 #   bash scripts/gpu_check.sh [PREFIX]     PREFIX: where the dependencies are
-#                                          installed, if not in /usr
+#                                          installed, if not in /usr; or an
+#                                          archive of scripts/pack_deps.sh,
+#                                          unpacked into $DEPS_DIR (default
+#                                          /tmp/difftrans-deps) first
 # Environment: BUILD (build folder, default build/gpu), CUDA_ARCH (default 90),
 # TARGETS (default: the device tests, bench_device_speed and the difftrans
 # command, equal_quality), STEPS (default: "tests command bench syntax";
@@ -26,6 +29,21 @@ root=$(cd "$(dirname "$0")/.." && pwd)
 build=${BUILD:-$root/build/gpu}
 logs=${LOG_DIR:-$build/logs}
 prefix=${1:-}
+if [ -n "$prefix" ] && [ -f "$prefix" ]; then
+  # an archive of scripts/pack_deps.sh: unpacked, its CMake files' /usr/ paths
+  # pointed at the unpacked copy, its libraries and ninja put on the paths
+  deps=${DEPS_DIR:-/tmp/difftrans-deps}
+  mkdir -p "$deps" && tar -C "$deps" -xJf "$prefix" || { echo "gpu_check: cannot unpack $prefix" >&2; exit 1; }
+  if [ ! -f "$deps/.rewritten" ]; then
+    grep -rlI "/usr/" "$deps/usr/lib/x86_64-linux-gnu/cmake" "$deps/usr/lib/cmake" "$deps/usr/share/cmake" \
+      "$deps/usr/share/nanoflann" "$deps/usr/share/eigen3" 2>/dev/null | xargs -r sed -i "s|/usr/|$deps/usr/|g"
+    touch "$deps/.rewritten"
+  fi
+  export LD_LIBRARY_PATH=$deps/usr/lib/x86_64-linux-gnu${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
+  command -v ninja >/dev/null || export PATH=$deps/bin:$PATH
+  prefix=$deps/usr
+fi
+command -v nvcc >/dev/null || export PATH=$PATH:/usr/local/cuda/bin
 mkdir -p "$logs"
 nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader || true
 nvcc --version | tail -2
@@ -63,6 +81,7 @@ for step in ${STEPS:-tests command bench syntax}; do
       inc=${inc:-/usr/include}
       # a source file sees its own top folder first (tests/support and bench/support share names)
       flags=(-std=c++17 -fsyntax-only -I"$root/include" -I"$root/tests" -I"$root/bench" -I"$root/examples"
+             -I"$root/examples/difftrans/gpu"
              -isystem "$inc/stb" -isystem "$inc/OpenEXR" -isystem "$inc/Imath" -isystem "$inc/eigen3" -DDIFFTRANS_HAVE_EMBREE=1
              -DDIFFTRANS_DATA_DIR=\"data\" -DDIFFTRANS_BUILD_FLAGS=\"\")
       [ -n "$prefix" ] && flags+=(-isystem "$inc")
