@@ -16,14 +16,14 @@ packages=(
   libtbbmalloc2 libtinygltf-dev libtinygltf2d libtinyobjloader-dev libtinyobjloader2rc10 nlohmann-json3-dev
   libhwloc15
 )
-work=$(mktemp -d "${TMPDIR:-/tmp}/difftrans-pack.XXXXXX")
-trap 'rm -rf "$work"' EXIT
-( cd "$work" && apt-get download "${packages[@]}" >"$work/apt.log" 2>&1 ) ||
-  { cat "$work/apt.log" >&2; echo "pack_deps: apt-get download failed (a Debian 12 machine with its package lists is needed)" >&2; exit 1; }
-mkdir -p "$work/root/bin"
-for deb in "$work"/*.deb; do dpkg -x "$deb" "$work/root"; done
+staging=$(mktemp -d "${TMPDIR:-/tmp}/difftrans-pack.XXXXXX")
+trap 'rm -rf "$staging"' EXIT
+( cd "$staging" && apt-get download "${packages[@]}" >"$staging/apt.log" 2>&1 ) ||
+  { cat "$staging/apt.log" >&2; echo "pack_deps: apt-get download failed (a Debian 12 machine with its package lists is needed)" >&2; exit 1; }
+mkdir -p "$staging/root/bin"
+for deb in "$staging"/*.deb; do dpkg -x "$deb" "$staging/root"; done
 ninja_bin=$(command -v ninja) || { echo "pack_deps: no ninja here to pack" >&2; exit 1; }
-cp "$ninja_bin" "$work/root/bin/"
+cp "$ninja_bin" "$staging/root/bin/"
 mkdir -p "$(dirname "$out")"
-tar -C "$work/root" -cJf "$out" usr bin
+tar -C "$staging/root" -cJf "$out" usr bin
 echo "pack_deps: ${#packages[@]} packages and ninja in $out ($(du -h "$out" | cut -f1))"

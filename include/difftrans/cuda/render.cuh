@@ -291,17 +291,18 @@ class DeviceGradients {
       const std::vector<float> zeros(host_[b]->size(), 0.0f);
       device_.push_back(upload_vector(zeros));
       set.buffers[b].gradient = device_.back()->data();
-      const std::vector<double> wide_zeros(render::sums_in_double(b) ? host_[b]->size() : 0, 0.0);
-      wide_.push_back(upload_vector(wide_zeros));
-      if (!wide_zeros.empty()) set.buffers[b].wide_gradient = wide_.back()->data();
+      if (render::sums_in_double(b) && !host_[b]->empty()) {
+        wide_[b] = upload_vector(std::vector<double>(host_[b]->size(), 0.0));
+        set.buffers[b].wide_gradient = wide_[b]->data();
+      }
     }
   }
   void add_to() const {
     for (int b = 0; b < render::param_count; ++b) {
       std::vector<float> g(host_[b]->size());
       if (!g.empty()) device_[std::size_t(b)]->download(g.data());
-      std::vector<double> w(wide_[std::size_t(b)]->size());
-      if (!w.empty()) wide_[std::size_t(b)]->download(w.data());
+      std::vector<double> w(wide_[b] ? wide_[b]->size() : 0);
+      if (wide_[b]) wide_[b]->download(w.data());
       for (std::size_t i = 0; i < g.size(); ++i) (*host_[b])[i] += w.empty() ? g[i] : float(w[i]);
     }
   }
@@ -309,7 +310,7 @@ class DeviceGradients {
  private:
   std::vector<float>* host_[render::param_count] = {};
   std::vector<std::unique_ptr<DeviceBuffer<float>>> device_;
-  std::vector<std::unique_ptr<DeviceBuffer<double>>> wide_;
+  std::unique_ptr<DeviceBuffer<double>> wide_[render::param_count];  // the buffers summed in double
 };
 
 }  // namespace detail

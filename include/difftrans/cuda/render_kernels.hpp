@@ -72,9 +72,11 @@ DT_HOST_DEVICE inline void counter_add(std::uint32_t* c, std::uint32_t v) {
 #endif
 }
 
+// Raises *c to v. On the device a plain read first: most calls (every ray,
+// every branch) find the maximum already above theirs and skip the atomic.
 DT_HOST_DEVICE inline void counter_max(std::uint32_t* c, std::uint32_t v) {
 #if DT_DEVICE_PASS
-  atomicMax(c, v);
+  if (v > *static_cast<volatile std::uint32_t*>(c)) atomicMax(c, v);
 #else
   std::uint32_t old = __atomic_load_n(c, __ATOMIC_RELAXED);
   while (old < v && !__atomic_compare_exchange_n(c, &old, v, true, __ATOMIC_RELAXED, __ATOMIC_RELAXED)) {

@@ -159,13 +159,10 @@ DT_HOST_DEVICE inline bool replay_branch(const TreeJob& tree, std::int64_t i, ad
       });
   tape.zero_on_push(false);
   if (tape.overflowed() || reader.overflowed()) return false;
-  if (tape.size() > 1) tape.propagate(tape.size() - 1, 1);
+  tape.propagate();
   reader.scatter();
   for (int k = 0; k < 9; ++k) t.adjoint[k] = tape.adjoint(state[k]);
-  if (job.counters) {
-    std::uint32_t* c = job.counters + counter_max_tape;
-    if (std::uint32_t(tape.peak()) > *static_cast<volatile std::uint32_t*>(c)) counter_max(c, std::uint32_t(tape.peak()));
-  }
+  if (job.counters) counter_max(job.counters + counter_max_tape, std::uint32_t(tape.peak()));
   return true;
 }
 
@@ -179,8 +176,6 @@ struct ReplayBranchStep {
   TreeJob tree;
   std::int64_t first = 0;
   std::int32_t* overflow_list = nullptr;
-
-  static constexpr std::size_t tape_bytes = LocalTape<TapeCapacity, LogCapacity>::bytes;
 
   DT_HOST_DEVICE void operator()(int i) const {
     LocalTape<TapeCapacity, LogCapacity> local;
