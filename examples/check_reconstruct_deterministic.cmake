@@ -7,7 +7,7 @@
 # their own: without them the fit is the same, bit for bit.
 # Arguments: -DCOMMAND=path/to/difftrans -DSCENE=scene directory -DWORK_DIR=folder
 set(options --stages environment,geometry,materials --grid 16 --iterations 20 --refine-iterations 10
-            --materials-iterations 12 --materials-freeze 4 --materials-rays 512 --materials-geometry --materials-blur-halving 3
+            --materials-iterations 12 --materials-freeze 4 --materials-rays 512 --materials-blur-halving 3
             --restart)
 set(outputs mesh_stage1_raw.obj mesh_stage1.obj mesh_stage2.obj material_stage2.json absorption_stage2.json envmap.hdr
             geometry_stage2.png)

@@ -43,11 +43,13 @@ step "evaluate: the relit images against the scene's test images"
 
 step "reconstruct: the environment (distant map or near field, chosen from the out-of-mask pixels),
    stage-1 geometry (FlexiCubes 32³ from the masks, 200 + 200 iterations) and stage 2 (the absorption
-   model chosen from held-out views, then IoR and absorption through the tracer, 200 iterations): a
-   short run; the defaults are 64³, 1000 + 1000 and 1200"
+   model chosen from held-out views, then the vertices, IoR and absorption through the tracer, 200
+   iterations, the vertices moving in 60 to 160): a short run; the defaults are 64³, 1000 + 1000 and
+   400 + 1500 + 300"
 rm -f "$out/reconstruct/reconstruct.json"
 "$dt" reconstruct "$out/scene" --out "$out/reconstruct" --stages environment,geometry,materials --grid 32 \
-  --iterations 200 --refine-iterations 200 --restart --materials-iterations 200 --materials-freeze 60 |
+  --iterations 200 --refine-iterations 200 --restart --materials-iterations 200 --materials-freeze 60 \
+  --materials-geometry-iterations 100 --materials-blur-halving 50 |
   grep -E '^ {4,6}"(psnr_background_test|psnr_map_seen|seen_fraction|chamfer|f1|genus|ior|ior_true|psnr|psnr_mask)"'
 
 step "relight: the reconstruction under blouberg_sunrise_2 against the ground truth under it"

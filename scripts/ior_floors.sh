@@ -1,12 +1,12 @@
 #!/usr/bin/env bash
 # Where the IoR error of a reconstruction comes from: stage 2's materials fit
-# (defaults, materials only) repeated on each pairing of a mesh and a map,
+# (the materials alone, `--materials-geometry=false`) repeated on each pairing of a mesh and a map,
 # the true ones (SCENE/gt/) and the recovered ones (RUN/mesh_stage1.obj,
 # RUN/envmap.hdr). A fit that reaches the true IoR on the true mesh under the
 # recovered map and misses it on the stage-1 mesh puts the error on the mesh;
 # the table gives each mesh's shading-normal error (metrics/normals.hpp,
-# docs/metrics.md) beside it. Optionally also a joint fit (--joint: the
-# vertices refined too, `--materials-geometry`) from the stage-1 mesh.
+# docs/metrics.md) beside it. Optionally also a joint fit (--joint: stage 2's
+# defaults, the vertices refined too) from the stage-1 mesh.
 #
 #   bash scripts/ior_floors.sh SCENE RUN WORK_DIR [--joint] [-- extra reconstruct options...]
 #
@@ -52,11 +52,11 @@ fit() {
   "$bin" reconstruct "$scene" --out "$out" --stages materials "${use_mesh[@]}" "$@" >/dev/null 2>"$out.log" ||
     { echo "ior_floors: $name failed, see $out.log" >&2; exit 1; }
 }
-fit true-mesh_true-map gt gt "$@"
-fit true-mesh_recovered-map gt recovered "$@"
-fit stage1-mesh_true-map stage1 gt "$@"
-fit stage1-mesh_recovered-map stage1 recovered "$@"
-[ $joint = 1 ] && fit joint_recovered-map stage1 recovered --materials-geometry "$@"
+fit true-mesh_true-map gt gt --materials-geometry=false "$@"
+fit true-mesh_recovered-map gt recovered --materials-geometry=false "$@"
+fit stage1-mesh_true-map stage1 gt --materials-geometry=false "$@"
+fit stage1-mesh_recovered-map stage1 recovered --materials-geometry=false "$@"
+[ $joint = 1 ] && fit joint_recovered-map stage1 recovered "$@"
 
 normals() {  # normals MESH: mean and 90th percentile of the shading-normal error, degrees
   "$bin" evaluate --pred "$1" --gt "$scene/gt/mesh.obj" 2>/dev/null |

@@ -14,7 +14,7 @@ work=${1:?usage: stage1_report.sh WORK_DIR [--only full|ablation]}
 only=${3:-all}
 [ "${2:-}" = "--only" ] || only=all
 here=$(cd "$(dirname "$0")/.." && pwd)
-bin=${DIFFTRANS:-$here/build/examples/difftrans}
+bin=${DIFFTRANS:-$here/build/release/examples/difftrans}
 [ -x "$bin" ] || { echo "stage1_report: $bin not found; build first (bash scripts/test.sh or cmake --build)" >&2; exit 1; }
 command -v jq >/dev/null || { echo "stage1_report: jq is needed (apt-get install jq)" >&2; exit 1; }
 [ -x /usr/bin/time ] || { echo "stage1_report: /usr/bin/time is needed (apt-get install time)" >&2; exit 1; }

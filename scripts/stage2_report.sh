@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Stage 2 (materials) on the quick benchmark scenes, after stage 1: for each
+# Stage 2 (the vertices, IoR and absorption, as the defaults run it) on the
+# quick benchmark scenes, after stage 1: for each
 # scene, the environment stage and the materials stage in a copy of the
 # stage-1 run of scripts/stage1_report.sh, plus two bounds rendered from the
 # test cameras with the ground-truth material and the recovered environment —
@@ -8,15 +9,15 @@
 #
 #   bash scripts/stage1_report.sh WORK_DIR --only full   # first (or reuse its runs)
 #   bash scripts/stage2_report.sh WORK_DIR [extra reconstruct options...]
-#   STAGE2_TAG=joint bash scripts/stage2_report.sh WORK_DIR --materials-geometry   # runs into WORK_DIR/joint/
+#   STAGE2_TAG=materials bash scripts/stage2_report.sh WORK_DIR --materials-geometry=false   # the materials alone, into WORK_DIR/materials/
 #
-# Needs a built `difftrans` ($DIFFTRANS or build/examples/difftrans), jq and
+# Needs a built `difftrans` ($DIFFTRANS or build/release/examples/difftrans), jq and
 # GNU time. Finished runs (their stage2_test/metrics.json) are kept.
 set -euo pipefail
 work=${1:?usage: stage2_report.sh WORK_DIR [reconstruct options...]}
 shift
 here=$(cd "$(dirname "$0")/.." && pwd)
-bin=${DIFFTRANS:-$here/build/examples/difftrans}
+bin=${DIFFTRANS:-$here/build/release/examples/difftrans}
 [ -x "$bin" ] || { echo "stage2_report: $bin not found; build first" >&2; exit 1; }
 command -v jq >/dev/null || { echo "stage2_report: jq is needed (apt-get install jq)" >&2; exit 1; }
 scenes="spot-clear bunny-clear horse-green monkey-bands"

@@ -2,8 +2,8 @@
 // (DIR/mesh_stage1.obj) and the recovered environment (DIR/envmap.hdr, or the
 // near field DIR/radiance_field.json) are read back; the IoR and an
 // absorption (none, homogeneous or a grid, chosen from held-out views unless
-// --absorption names one; and, with --materials-geometry, the vertices) are
-// fitted to the photographs' object pixels through the recursive tracer.
+// --absorption names one; and the vertices, unless --materials-geometry=false)
+// are fitted to the photographs' object pixels through the recursive tracer.
 // Writes material_stage2.json (+ absorption_stage2.json for a grid),
 // mesh_stage2.obj, the loss
 // curve, renders of the test views with metrics and a contact sheet, and the

@@ -68,6 +68,10 @@ dr::HostScene dented_sphere() {
 
 TEST_CASE("Stage2Config::total_iterations: the materials alone, the vertices' phase and its settling, or as given") {
   pipeline::Stage2Config cfg;
+  REQUIRE(cfg.optimize_positions);  // the vertices move by default
+  CHECK(cfg.total_iterations() ==
+        cfg.freeze_geometry + cfg.geometry_iterations + pipeline::Stage2Config::settle_iterations);
+  cfg.optimize_positions = false;
   CHECK(cfg.total_iterations() == pipeline::Stage2Config::materials_iterations);
   cfg.optimize_positions = true;
   cfg.freeze_geometry = 40;
@@ -185,6 +189,7 @@ TEST_CASE("stage 2 settles the IoR at the zero of the IoR gradient's line over f
   for (const float start : {1.41f, 1.49f}) {
     dr::HostScene s = glass_sphere(start, sigma_true);
     pipeline::Stage2Config cfg;
+    cfg.optimize_positions = false;  // the materials alone
     cfg.iterations = 0;
     cfg.ior_init = start;
     cfg.rays_per_iteration = 2048;
@@ -333,6 +338,7 @@ TEST_CASE("stage 2 fits the sky no background pixel saw") {
     for (int t = 0; t < W * unseen_rows; ++t)
       for (int c = 0; c < 3; ++c) s.environment[std::size_t(3 * t + c)] *= 2.0f;
     pipeline::Stage2Config cfg;
+    cfg.optimize_positions = false;  // the materials alone
     cfg.absorption_model = pipeline::AbsorptionModel::grid;
     cfg.iterations = 300;
     cfg.ior_init = 1.45f;
@@ -384,6 +390,7 @@ TEST_CASE("unseen_sky homogeneous: the sky's factor is fitted when the absorptio
   std::vector<std::uint8_t> seen(std::size_t(W * H), 1);
   for (int t = 0; t < W * unseen_rows; ++t) seen[std::size_t(t)] = 0;
   pipeline::Stage2Config cfg;
+  cfg.optimize_positions = false;  // the materials alone
   cfg.unseen_sky = pipeline::UnseenSky::homogeneous;
   cfg.rays_per_iteration = 1024;
   cfg.selection_iterations = 40;
@@ -1031,6 +1038,7 @@ TEST_CASE("stage 2 chooses the training depth where the image stops changing bey
     const Photos photos = photograph(truth, 8, 32);
     dr::HostScene s = glass_sphere(1.5f, sigma);
     pipeline::Stage2Config cfg;
+    cfg.optimize_positions = false;  // the materials alone
     cfg.absorption_model = sigma == Vec3f(0.0f) ? pipeline::AbsorptionModel::none : pipeline::AbsorptionModel::homogeneous;
     cfg.sigma_search.clear();
     cfg.iterations = 1;
