@@ -8,7 +8,14 @@
 # and found, error, CD and F1 after stage 1 and after stage 2, wall time.
 #
 #   bash scripts/ior_sweep.sh WORK_DIR [--shapes spot,sphere] [--iors 1.3,1.4,1.5,1.6,1.8]
-#        [--variant quick] [-- extra reconstruct options...]
+#        [--variant quick] [--spot-stage1 RUN] [-- extra reconstruct options...]
+#
+# --spot-stage1 RUN: the spot scenes start from RUN's stage 1 (a finished
+# `reconstruct SCENE --stages geometry` of spot-clear at the same variant)
+# instead of fitting their own: stage 1 sees the masks only, and the
+# cameras and masks of the spot-clear preset do not change with --ior, so
+# every spot scene gets the same stage-1 mesh, and the table compares
+# stage 2 alone across IoRs (environment and materials run per scene).
 #
 # Needs a built `difftrans` ($DIFFTRANS or build/release/examples/difftrans),
 # jq and GNU time. A finished run (its reconstruct.json has a materials
@@ -19,11 +26,13 @@ shift
 shapes=spot,sphere
 iors=1.3,1.4,1.5,1.6,1.8
 variant=quick
+spot_stage1=
 while [ $# -gt 0 ]; do
   case $1 in
     --shapes) shapes=$2; shift 2 ;;
     --iors) iors=$2; shift 2 ;;
     --variant) variant=$2; shift 2 ;;
+    --spot-stage1) spot_stage1=$2; shift 2 ;;
     --) shift; break ;;
     *) echo "ior_sweep: unknown option $1 (extra reconstruct options go after --)" >&2; exit 2 ;;
   esac
@@ -50,7 +59,15 @@ for shape in ${shapes//,/ }; do
     if ! jq -e '.materials.ior' "$out/reconstruct.json" >/dev/null 2>&1; then
       echo "ior_sweep: $name" >&2
       rm -rf "$out"
-      /usr/bin/time -v "$bin" reconstruct "$scene" --out "$out" --stages environment,geometry,materials "$@" \
+      stages=environment,geometry,materials
+      if [ "$shape" = spot ] && [ -n "$spot_stage1" ]; then
+        [ -f "$spot_stage1/mesh_stage1.obj" ] && [ -f "$spot_stage1/reconstruct.json" ] ||
+          { echo "ior_sweep: $spot_stage1 holds no finished stage 1 (mesh_stage1.obj, reconstruct.json)" >&2; exit 1; }
+        mkdir -p "$out"
+        cp "$spot_stage1"/mesh_stage1*.obj "$spot_stage1/reconstruct.json" "$out/"
+        stages=environment,materials
+      fi
+      /usr/bin/time -v "$bin" reconstruct "$scene" --out "$out" --stages $stages "$@" \
         >/dev/null 2>"$out.log" || { echo "ior_sweep: $name failed (see $out.log)" >&2; continue; }
     fi
     wall=$(grep "Elapsed (wall clock)" "$out.log" | awk '{print $NF}')

@@ -6,7 +6,7 @@
 #
 #   bash scripts/stage1_report.sh WORK_DIR [--only full|ablation]
 #
-# Needs a built `difftrans` (build/examples/difftrans, or $DIFFTRANS), GNU time
+# Needs a built `difftrans` (build/release/examples/difftrans, or $DIFFTRANS), GNU time
 # (/usr/bin/time) and jq. Each run takes a few minutes on 2 cores; the whole
 # report about an hour. Finished runs (their reconstruct.json) are not redone.
 set -euo pipefail

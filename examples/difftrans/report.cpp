@@ -93,7 +93,9 @@ Suite make_suite(const std::string& name) {
     s.relight_views = 4;
     s.study_synth = {"--variant", "test"};
     s.study_stage1 = {"--grid", "32", "--iterations", "300", "--refine-iterations", "300", "--env-model", "distant"};
-    s.study_stage2 = {"--materials-iterations", "200"};
+    // the demo's short stage 2: the vertices move in iterations 60 to 160
+    s.study_stage2 = {"--materials-iterations", "200", "--materials-freeze", "60", "--materials-geometry-iterations", "100",
+                      "--materials-blur-halving", "50"};
     s.iors = {"1.3", "1.4", "1.5", "1.6", "1.8"};
     s.mask_noise = {1, 3};
     s.mask_blobs = {3};
