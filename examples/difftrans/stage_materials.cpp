@@ -21,6 +21,7 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -201,6 +202,29 @@ inline pipeline::Stage2::BatchGradient gpu_batch_gradient(GpuBatchTracer& gpu) {
 
 void add_materials_options(CLI::App* cmd, pipeline::Stage2Config& config) {
   add_config_options(cmd, config, "Materials: ");
+  // --ior-init: a number, where the IoR starts (the scan off), or "scan"
+  cmd->add_option_function<std::string>(
+         "--ior-init",
+         [&config](const std::string& value) {
+           if (value == "scan") {
+             config.ior_scan = true;
+             return;
+           }
+           std::size_t used = 0;
+           float x = 0.0f;
+           try {
+             x = std::stof(value, &used);
+           } catch (const std::exception&) {
+             used = 0;
+           }
+           if (used != value.size() || !(x >= 1.0f && x <= 3.0f))
+             throw CLI::ValidationError("--ior-init", "'" + value + "' is neither an IoR in [1, 3] nor 'scan'");
+           config.ior_init = x;
+           config.ior_scan = false;
+         },
+         "Materials: where the IoR starts: scan (the lowest loss of a few fixed batches among --ior-scan-values, "
+         "before the absorption is chosen) or a number (from there; no scan)")
+      ->default_str("scan");
 }
 
 io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeline::Stage2Config& config,
@@ -266,7 +290,8 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
   j["training_views"] = views.size();
 
   progress("materials: " + std::to_string(cfg.iterations) + " iterations over " + std::to_string(views.size()) +
-           " views, " + std::to_string(cfg.rays_per_iteration) + " rays each, IoR from " + fixed(cfg.ior_init, 3) +
+           " views, " + std::to_string(cfg.rays_per_iteration) + " rays each, IoR from " +
+           (cfg.ior_scan && cfg.optimize_ior ? std::string("a scan") : fixed(cfg.ior_init, 3)) +
            ", absorption " +
            (cfg.absorption_model == pipeline::AbsorptionModel::automatic
                 ? "chosen from none, homogeneous and grids up to " + std::to_string(cfg.absorption_res) + "^3"
@@ -324,6 +349,7 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
                  " held-out batches (every " + std::to_string(cfg.selection_holdout) + "th view; " +
                  std::to_string(cfg.selection_iterations) + " iterations per candidate)");
       const bool choosing_depth = stage.iteration() == 0 && cfg.choose_depth && stage.depth_choice().is_null();
+      const bool scanning = stage.ior_scan().is_null();
       // the vertices about to move: the stage-1 mesh under the materials fitted so far
       if (cfg.optimize_positions && stage.iteration() == cfg.freeze_geometry)
         levels.record(to_io_mesh(s.mesh.positions, s.mesh.triangles), cfg.freeze_geometry, "stage 1");
@@ -354,6 +380,9 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
                       : std::string()));
       }
       if (st.geometry_moving) levels.step(st, s.mesh);
+      if (scanning && !stage.ior_scan().is_null())
+        progress("materials: " + stage.ior_scan().value("summary", std::string()) + ", in " +
+                 duration_text(stage.ior_scan().value("seconds", 0.0)));
       if (choosing) {
         const io::Json& c = stage.absorption_choice();
         progress("materials: absorption " + c.value("summary", std::string()) + ", in " +
@@ -430,6 +459,7 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
     j["absorption_model"] = model;
   }
   if (!stage.depth_choice().is_null()) j["depth_choice"] = stage.depth_choice();
+  if (!stage.ior_scan().is_null()) j["ior_scan"] = stage.ior_scan();
   const Vec3f s0 = stage.searched_sigma();
   if (std::isfinite(s0.x)) {  // Stage2Config::sigma_search's choice and its evidence
     j["sigma_start"] = {s0.x, s0.y, s0.z};

@@ -302,14 +302,22 @@ std::vector<RayEval> trace_rays(const HostScene& s, const std::vector<BatchRay>&
 // rays traced in double through `scene`.
 double mean_batch_loss(const HostScene& scene, const std::vector<std::vector<BatchRay>>& rays,
                        const std::vector<std::vector<Vec3f>>& targets, int count, const pipeline::Stage2& stage,
-                       const TraceSettings& settings) {
+                       const TraceSettings& settings, float glint_factor = 0.0f) {
+  // k rays per pixel, compared as the fit compares them (Stage2::pixel_loss:
+  // with pixel pairs, unbiased by the samples' noise)
+  const std::size_t k = std::size_t(std::max(1, stage.config().pixel_samples));
   double sum = 0.0;
+  std::vector<Vec3f> L(k), adjoint(k);
   for (int b = 0; b < count; ++b) {
     const auto& r = rays[std::size_t(b)];
-    const float inv_n = 1.0f / float(r.size());
+    const auto& target = targets[std::size_t(b)];
+    const float inv_n = 1.0f / float(std::max<std::size_t>(1, target.size()));
+    const float level = stage.glint_level(target, glint_factor);  // infinite when glint_factor is 0
     const std::vector<RayEval> e = trace_rays(scene, r, settings);
-    for (std::size_t i = 0; i < r.size(); ++i)
-      sum += stage.ray_loss(Vec3f(e[i].radiance), targets[std::size_t(b)][i], inv_n, stage.config().colour_loss).value;
+    for (std::size_t p = 0; p < target.size() && (p + 1) * k <= e.size(); ++p) {
+      for (std::size_t q = 0; q < k; ++q) L[q] = Vec3f(e[p * k + q].radiance);
+      sum += stage.pixel_loss(L.data(), int(k), target[p], inv_n, adjoint.data(), stage.config().colour_loss, level).value;
+    }
   }
   return sum / double(std::max(1, count));
 }
@@ -1092,6 +1100,7 @@ struct IorOptions {
   int gradient_batches = 8;              // batches of dL/dIoR at the material's IoR
   std::vector<double> check_steps;       // per-ray central differences of the first batch (empty: none)
   std::vector<double> clip_ior{0.0};     // per-ray clips of the IoR derivative (0: none)
+  float glint = 0.0f;                    // leave out pixels brighter than this × the batch's median (0: none)
 };
 
 // Where is the loss lowest in the IoR (and a grey absorption)? The loss
@@ -1111,8 +1120,12 @@ io::Json ior_scan(Setup& setup, const IorOptions& o) {
   std::vector<std::vector<BatchRay>> rays(static_cast<std::size_t>(nb));
   std::vector<std::vector<Vec3f>> targets(static_cast<std::size_t>(nb));
   for (int b = 0; b < nb; ++b) setup.batch(b, rays[std::size_t(b)], targets[std::size_t(b)]);
-  const auto mean_loss = [&] { return mean_batch_loss(s, rays, targets, o.loss_batches, stage, setup.trace()); };
+  const auto mean_loss = [&] { return mean_batch_loss(s, rays, targets, o.loss_batches, stage, setup.trace(), o.glint); };
   io::Json out;
+  out["glint_factor"] = o.glint;
+  out["pixel_samples"] = stage.config().pixel_samples;
+  // the per-ray statistics below: each of a pixel's k rays against its photograph
+  const std::size_t k = std::size_t(std::max(1, stage.config().pixel_samples));
   // the gradient at the material's IoR, batch by batch, each ray's
   // derivative clipped at each of clip_ior (per ray, before the 1/n of the mean; 0: not clipped)
   {
@@ -1131,7 +1144,7 @@ io::Json ior_scan(Setup& setup, const IorOptions& o) {
         const render::RayBatchResult rb = render::ray_batch_gradient<float>(
             s, r,
             [&](std::int32_t i, const Vec3f& L, Vec3f& dL) {
-              const auto l = stage.ray_loss(L, tg[std::size_t(i)], inv_n, stage.config().colour_loss);
+              const auto l = stage.ray_loss(L, tg[std::size_t(i) / k], inv_n, stage.config().colour_loss);
               dL = l.adjoint;
               return l.value;
             },
@@ -1162,7 +1175,7 @@ io::Json ior_scan(Setup& setup, const IorOptions& o) {
     std::vector<double> ad_ray(r.size());
     double rms = 0.0;
     for (std::size_t i = 0; i < r.size(); ++i) {
-      const Vec3f adj = stage.ray_loss(Vec3f(at[i].radiance), tg[i], inv_n, stage.config().colour_loss).adjoint;
+      const Vec3f adj = stage.ray_loss(Vec3f(at[i].radiance), tg[i / k], inv_n, stage.config().colour_loss).adjoint;
       ad_ray[i] = glm::dot(Vec3d(adj), at[i].derivative);
       rms += ad_ray[i] * ad_ray[i];
     }
@@ -1205,8 +1218,8 @@ io::Json ior_scan(Setup& setup, const IorOptions& o) {
       std::int64_t agree = 0, changed = 0;
       std::map<std::string, Agreement> by_class;
       for (std::size_t i = 0; i < r.size(); ++i) {
-        const double lu = stage.ray_loss(Vec3f(up[i].radiance), tg[i], inv_n, stage.config().colour_loss).value;
-        const double ld = stage.ray_loss(Vec3f(down[i].radiance), tg[i], inv_n, stage.config().colour_loss).value;
+        const double lu = stage.ray_loss(Vec3f(up[i].radiance), tg[i / k], inv_n, stage.config().colour_loss).value;
+        const double ld = stage.ray_loss(Vec3f(down[i].radiance), tg[i / k], inv_n, stage.config().colour_loss).value;
         const double fd = (lu - ld) / step, a = ad_ray[i];
         const bool ok = std::abs(fd - a) <= 0.01 * std::abs(a) + 1e-3 * rms;
         const bool moved = !same_path(up[i].stats, at[i].stats) || !same_path(down[i].stats, at[i].stats);
@@ -1850,6 +1863,13 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   r->add_option("--gradient-batches", io_.gradient_batches, "Batches of dL/dIoR at the material's IoR")
       ->capture_default_str()->check(CLI::PositiveNumber);
+  int scan_samples = 1;
+  r->add_option("--pixel-samples", scan_samples, "Rays per pixel, compared as the fit does (2: pixel pairs, whose "
+                                                 "loss the samples' noise does not bias)")
+      ->capture_default_str()->check(CLI::Range(1, 64));
+  r->add_option("--glint", io_.glint, "Leave out of the scanned loss the pixels whose photograph or render is brighter "
+                                      "than this times the batch's median photographed pixel (0: none)")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
 
   IorNoiseOptions no;
   CLI::App* nz = app.add_subcommand("ior-noise", "The fit's own IoR gradient split by pixel class (glints, "
@@ -1916,6 +1936,7 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (nz->parsed()) common.pixel_samples = noise_samples;
+    if (r->parsed()) common.pixel_samples = scan_samples;
     Setup setup(common);
     io::Json result;
     result["scene"] = common.scene.string();

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -78,6 +79,24 @@ void set_bands(dr::HostScene& s, const Vec3f& above, const Vec3f& below) {
   s.set_grid_absorption(res, lo, hi, std::move(raw));
 }
 
+// One step of a sphere's stage 2 that chooses its absorption: 16 views of
+// 32², every 4th held out; each candidate fitted for 60 iterations of 2048
+// rays; grids up to 4³; the IoR from 1.5.
+pipeline::Stage2Config choice_config() {
+  pipeline::Stage2Config cfg;
+  cfg.iterations = 1;
+  cfg.ior_init = 1.5f;
+  cfg.rays_per_iteration = 2048;
+  cfg.selection_iterations = 60;
+  cfg.selection_batches = 4;
+  cfg.selection_holdout = 4;
+  cfg.absorption_res = 4;
+  cfg.box_lo = Vec3f(-0.45f);
+  cfg.box_hi = Vec3f(0.45f);
+  cfg.ior_settle_batches = 0;
+  return cfg;
+}
+
 }  // namespace
 
 TEST_CASE("stage 2 chooses the absorption model from the photographs") {
@@ -97,18 +116,9 @@ TEST_CASE("stage 2 chooses the absorption model from the photographs") {
   }
   const dt_test::Photos photos = dt_test::photograph(truth, 16, 32);
   dr::HostScene s = sphere(1.5f);
-  pipeline::Stage2Config cfg;
+  pipeline::Stage2Config cfg = choice_config();
   REQUIRE(cfg.absorption_model == pipeline::AbsorptionModel::automatic);  // the default
-  cfg.iterations = 1;
-  cfg.ior_init = 1.5f;
-  cfg.rays_per_iteration = 2048;
-  cfg.selection_iterations = 60;
-  cfg.selection_batches = 4;
-  cfg.selection_holdout = 4;
-  cfg.absorption_res = 4;
-  cfg.box_lo = Vec3f(-0.45f);
-  cfg.box_hi = Vec3f(0.45f);
-  cfg.ior_settle_batches = 0;
+  cfg.ior_scan = false;  // the choice from a start off the truth (the scan: the test below)
   pipeline::Stage2 st(s, dt_test::views_of(photos), {}, cfg);
   st.step();
   const difftrans::io::Json& choice = st.absorption_choice();
@@ -145,5 +155,64 @@ TEST_CASE("stage 2 chooses the absorption model from the photographs") {
     const auto& h = candidates[0]["mean_sigma"];
     CHECK(h[0].get<double>() < h[1].get<double>());
     CHECK(h[1].get<double>() < h[2].get<double>());
+  }
+}
+
+TEST_CASE("stage 2 starts the IoR where a scan's loss is lowest: a clear sphere at 1.8 started at 1.5") {
+  // The fit's own steps cross 0.3 of IoR slowly; without a scan, a start at
+  // 1.5 left the absorption choice's candidates short of the truth, where an
+  // absorption can stand in for the IoR they had not reached (spot at 1.8
+  // got a false homogeneous σ). The scan traces fixed batches at each IoR of
+  // ior_scan_values and starts at the lowest. Here, without it, the sphere
+  // still keeps "none" but the fit restarts at 1.50, 0.3 from the truth.
+  const dr::HostScene truth = sphere(1.8f);
+  const dt_test::Photos photos = dt_test::photograph(truth, 16, 32);
+  dr::HostScene s = sphere(1.5f);
+  pipeline::Stage2Config cfg = choice_config();  // ior_init 1.5: the scan replaces it
+  REQUIRE(cfg.ior_scan);  // on by default
+  pipeline::Stage2 st(s, dt_test::views_of(photos), {}, cfg);
+  CHECK(st.ior_scan().is_null());  // not before the first step
+  st.step();
+  const difftrans::io::Json& scan = st.ior_scan();
+  REQUIRE(scan.is_object());
+  MESSAGE(scan["summary"].get<std::string>());
+  const auto iors = scan["iors"].get<std::vector<double>>();
+  const auto loss = scan["loss"].get<std::vector<double>>();
+  REQUIRE(iors.size() == cfg.ior_scan_values.size());
+  REQUIRE(loss.size() == iors.size());
+  CHECK(scan["pixels"].get<std::size_t>() > 1000);
+  // the lowest of the scanned IoRs is the truth's, and the loss falls towards it from 1.5
+  const std::size_t lowest = std::size_t(std::min_element(loss.begin(), loss.end()) - loss.begin());
+  CHECK(iors[lowest] == doctest::Approx(1.8).epsilon(1e-4));
+  for (std::size_t q = 0; q + 1 <= lowest; ++q)
+    if (iors[q] >= 1.45) CHECK(loss[q] > loss[q + 1]);
+  // the start: the parabola's vertex, between the lowest point's neighbours
+  const double start = scan["start"].get<double>();
+  CHECK(std::abs(start - 1.8) < 0.03);
+  CHECK(start > iors[lowest - 1]);
+  CHECK(start < iors[lowest + 1]);
+  CHECK(scan["ior_before"].get<double>() == doctest::Approx(1.5));
+  // the absorption choice then starts there: the clear sphere stays clear
+  const difftrans::io::Json& choice = st.absorption_choice();
+  REQUIRE(choice.is_object());
+  MESSAGE(choice["summary"].get<std::string>());
+  CHECK(choice["chosen"] == "none");
+  CHECK(s.absorption_kind == ds::AbsorptionKind::none);
+  CHECK(std::abs(s.ior - 1.8f) < 0.03f);
+
+  // no scan when the IoR is not fitted or a start is given
+  {
+    for (const bool fitted : {false, true}) {
+      pipeline::Stage2Config off = cfg;
+      off.iterations = 1;
+      off.absorption_model = pipeline::AbsorptionModel::none;
+      if (fitted) off.ior_scan = false;
+      else off.optimize_ior = false;
+      dr::HostScene t = sphere(1.5f);
+      pipeline::Stage2 other(t, dt_test::views_of(photos), {}, off);
+      other.step();
+      CHECK(other.ior_scan().is_null());
+      CHECK(t.ior == doctest::Approx(1.5f).epsilon(fitted ? 0.01 : 1e-6));
+    }
   }
 }

@@ -111,6 +111,7 @@ TEST_CASE("stage 2 recovers IoR and absorption on a glass sphere (geometry known
   cfg.absorption_model = pipeline::AbsorptionModel::grid;
   cfg.iterations = 600;
   cfg.ior_init = 1.55f;
+  cfg.ior_scan = false;  // the fit from this start
   cfg.ior_warmup = 100;  // the IoR's slow warm-up (the paper's 1e-4) while the absorption finds its level
   cfg.freeze_geometry = 100;
   cfg.rays_per_iteration = 2048;
@@ -192,6 +193,7 @@ TEST_CASE("stage 2 settles the IoR at the zero of the IoR gradient's line over f
     cfg.optimize_positions = false;  // the materials alone
     cfg.iterations = 0;
     cfg.ior_init = start;
+    cfg.ior_scan = false;  // the fit from this start
     cfg.rays_per_iteration = 2048;
     cfg.ior_settle_batches = 32;
     cfg.sigma_search.clear();
@@ -224,6 +226,7 @@ TEST_CASE("settle_before_vertices: the IoR settles once, before the first vertex
   pipeline::Stage2Config cfg = clear_vertex_config();
   cfg.rays_per_iteration = 2048;
   cfg.ior_init = 1.49f;
+  cfg.ior_scan = false;  // the fit from this start
   cfg.freeze_geometry = 6;
   cfg.ior_warmup = 6;
   cfg.iterations = 9;
@@ -281,6 +284,7 @@ TEST_CASE("materials_pass_rays: while the vertices move, the IoR and absorption 
   cfg.freeze_geometry = 0;
   cfg.ior_warmup = 0;
   cfg.ior_init = 1.5f;
+  cfg.ior_scan = false;  // the fit from this start
   cfg.lr_ior = 2e-3f;
   cfg.iterations = 150;
   cfg.ior_with_vertices = pipeline::IorWithVertices::on;
