@@ -222,9 +222,10 @@ void add_materials_options(CLI::App* cmd, pipeline::Stage2Config& config) {
            config.ior_init = x;
            config.ior_scan = false;
          },
-         "Materials: where the IoR starts: scan (the lowest loss of a few fixed batches among --ior-scan-values, "
-         "before the absorption is chosen) or a number (from there; no scan)")
-      ->default_str("scan");
+         "Materials: where the IoR starts: a number, or scan (the lowest loss of a few fixed batches among "
+         "--ior-scan-values, before the absorption is chosen; helps where the IoR is far from the start and the "
+         "loss tells IoRs apart, misled where it is flat: docs/model-choice.md)")
+      ->default_str("1.5");
 }
 
 io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeline::Stage2Config& config,

@@ -311,9 +311,12 @@ struct Stage2Config {
   // (clear) and 1.692 (homogeneous), and the homogeneous one won, a false
   // absorption that stood in for the IoR they had not reached; its loss
   // there, the same pixels, was lowest at 1.8 (stage2_diagnose ior, the
-  // stage-1 mesh and map). The command turns the scan off when --ior-init
-  // names a start.
-  bool ior_scan = true;
+  // stage-1 mesh and map). Off by default: on bunny-clear (quick, seed 1),
+  // whose stage-1 mesh is a tenth of a pixel off, the scan's loss was flat
+  // (0.00163 to 0.00174 over 1.2 to 2.5, 9980 of 16384 pixels left out) and
+  // its lowest point, 2.1, took the IoR to 1.893 (truth 1.485). The command
+  // turns it on with --ior-init scan.
+  bool ior_scan = false;
   std::vector<float> ior_scan_values = ior_scan_grid();
   static std::vector<float> ior_scan_grid() {
     std::vector<float> out;
