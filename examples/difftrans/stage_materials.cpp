@@ -292,7 +292,7 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
 
   progress("materials: " + std::to_string(cfg.iterations) + " iterations over " + std::to_string(views.size()) +
            " views, " + std::to_string(cfg.rays_per_iteration) + " rays each, IoR from " +
-           (cfg.ior_scan && cfg.optimize_ior ? std::string("a scan") : fixed(cfg.ior_init, 3)) +
+           (cfg.scans_ior() ? std::string("a scan") : fixed(cfg.ior_init, 3)) +
            ", absorption " +
            (cfg.absorption_model == pipeline::AbsorptionModel::automatic
                 ? "chosen from none, homogeneous and grids up to " + std::to_string(cfg.absorption_res) + "^3"

@@ -324,6 +324,7 @@ struct Stage2Config {
     return out;
   }
   int ior_scan_batches = 4;
+  bool scans_ior() const { return ior_scan && optimize_ior; }  // the scan runs (it needs a fitted IoR)
   bool optimize_ior = true, optimize_absorption = true;
   // The vertices move with the IoR and the absorption (on by default: stage 2
   // lowers stage 1's chamfer distance on every quick preset, CD ratio 0.44
@@ -1273,7 +1274,7 @@ class Stage2 {
     }
     if (st.geometry_moving) positions_.change_lambda(lambda_at(it), scene_.mesh.positions);
     st.lambda = st.geometry_moving ? positions_.lambda() : 0.0;
-    if (it == 0 && config_.ior_scan && config_.optimize_ior && ior_scan_.is_null()) start_ior();
+    if (it == 0 && config_.scans_ior() && ior_scan_.is_null()) start_ior();
     if (it == 0 && choosing()) {
       choose_absorption();
       // unseen_sky homogeneous, one σ chosen: the absorption and the sky
@@ -2308,7 +2309,7 @@ class Stage2 {
       std::vector<Vec3f> target;
       draw_batch(rng, rays, target);
       const float glint = glint_level(target, config_.selection_glint);
-      // value[q][p]; NaN where the pixel is left out
+      // value[q][p]: pixel p's loss at iors[q]; keep[p] 0 when left out
       std::vector<std::vector<double>> value(iors.size(), std::vector<double>(target.size(), 0.0));
       std::vector<std::uint8_t> keep(target.size(), 1);
       for (std::size_t q = 0; q < iors.size(); ++q) {
