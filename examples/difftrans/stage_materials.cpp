@@ -222,10 +222,10 @@ void add_materials_options(CLI::App* cmd, pipeline::Stage2Config& config) {
            config.ior_init = x;
            config.ior_scan = false;
          },
-         "Materials: where the IoR starts: a number, or scan (the lowest loss of a few fixed batches among "
-         "--ior-scan-values, before the absorption is chosen; helps where the IoR is far from the start and the "
-         "loss tells IoRs apart, misled where it is flat: docs/model-choice.md)")
-      ->default_str("1.5");
+         "Materials: where the IoR starts: scan (the lowest loss of a few fixed batches among --ior-scan-values, "
+         "before the absorption is chosen, when it beats the loss at 1.5 by 2 standard errors and "
+         "--ior-scan-min-gain; else 1.5: docs/model-choice.md), or a number (no scan)")
+      ->default_str("scan");
 }
 
 io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeline::Stage2Config& config,

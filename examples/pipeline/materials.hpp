@@ -305,18 +305,18 @@ struct Stage2Config {
   float ior_min = 1.0f, ior_max = 3.0f;
   // Where the IoR starts (Stage2::scan_ior): true, the lowest loss of a few
   // fixed batches traced at each of ior_scan_values (the parabola through
-  // the lowest and its neighbours); false, ior_init. The fit's own steps
-  // cross 0.3 of IoR slowly: on spot at IoR 1.8 (quick, seed 1) the
-  // absorption choice's candidates, 120 iterations from 1.5, ended at 1.655
-  // (clear) and 1.692 (homogeneous), and the homogeneous one won, a false
-  // absorption that stood in for the IoR they had not reached; its loss
-  // there, the same pixels, was lowest at 1.8 (stage2_diagnose ior, the
-  // stage-1 mesh and map). Off by default: on bunny-clear (quick, seed 1),
-  // whose stage-1 mesh is a tenth of a pixel off, the scan's loss was flat
-  // (0.00163 to 0.00174 over 1.2 to 2.5, 9980 of 16384 pixels left out) and
-  // its lowest point, 2.1, took the IoR to 1.893 (truth 1.485). The command
-  // turns it on with --ior-init scan.
-  bool ior_scan = false;
+  // the lowest and its neighbours) when it beats the loss at ior_init on the
+  // same pixels by 2 standard errors and ior_scan_min_gain, else ior_init;
+  // false, ior_init. The fit's own steps cross 0.3 of IoR slowly: on spot
+  // at IoR 1.8 (quick, seed 1) the absorption choice's candidates, 120
+  // iterations from 1.5, ended at 1.655 (clear) and 1.692 (homogeneous),
+  // and the homogeneous one won, a false absorption that stood in for the
+  // IoR they had not reached (IoR error 0.044; 0.005 from the scan's 1.744).
+  // Without the rule (a pixel left out when it glinted at any IoR) the
+  // flat loss of bunny-clear, whose stage-1 mesh is a tenth of a pixel off,
+  // put its lowest point at 2.1 and the IoR ended at 1.893 (truth 1.485);
+  // with it the IoR stays at 1.5 there (docs/model-choice.md).
+  bool ior_scan = true;
   std::vector<float> ior_scan_values = ior_scan_grid();
   static std::vector<float> ior_scan_grid() {
     std::vector<float> out;
@@ -324,6 +324,9 @@ struct Stage2Config {
     return out;
   }
   int ior_scan_batches = 4;
+  // The scan moves the IoR only when its lowest loss beats the start's, on
+  // the same pixels, by 2 standard errors and by this fraction.
+  float ior_scan_min_gain = 0.05f;
   bool scans_ior() const { return ior_scan && optimize_ior; }  // the scan runs (it needs a fitted IoR)
   bool optimize_ior = true, optimize_absorption = true;
   // The vertices move with the IoR and the absorption (on by default: stage 2
@@ -667,6 +670,11 @@ struct Stage2Config {
       c.ior_scan);
     v(Field{"ior_scan_values", "--ior-scan-values", "IoRs of the starting scan", 1, 3}, c.ior_scan_values);
     v(Field{"ior_scan_batches", "", "batches of the starting IoR scan"}, c.ior_scan_batches);
+    v(Field{"ior_scan_min_gain", "--ior-scan-min-gain",
+            "the IoR scan moves the start only when its lowest loss beats the start's by this fraction (and by 2 "
+            "standard errors)",
+            0, 1},
+      c.ior_scan_min_gain);
     v(Field{"ior_min", "", "smallest IoR"}, c.ior_min);
     v(Field{"ior_max", "", "largest IoR"}, c.ior_max);
     v(Field{"optimize_ior", "", "fit the IoR"}, c.optimize_ior);
@@ -2274,24 +2282,29 @@ class Stage2 {
   }
 
   // Stage2Config::ior_scan: the IoR starts where the loss is lowest among
-  // ior_scan_values. ior_scan_batches fixed batches (every training view)
-  // are traced at each IoR with the absorption as it stands (none, or the
-  // search's σ at the IoR the scene had) and each pixel's loss taken as the
-  // fit takes it (pixel pairs: unbiased by the samples' noise). A pixel
-  // that glints (selection_glint), is an outlier or not a number at any of
-  // the IoRs is left out at all of them, so that every IoR is scored on the
-  // same pixels. The start is the vertex of the parabola through the lowest
-  // point and its two neighbours (the lowest point itself at an end of the
-  // list), kept between those neighbours. Recorded in ior_scan_.
+  // ior_scan_values, when that lowest point beats the IoR the scene had.
+  // ior_scan_batches fixed batches (every training view) are traced at each
+  // IoR (and at the IoR the scene had, when the list lacks it) with the
+  // absorption as it stands (none, or the search's σ at the IoR the scene
+  // had) and each pixel's loss taken as the fit takes it (pixel pairs:
+  // unbiased by the samples' noise). Every IoR is compared with the one the
+  // scene had on the pixels both kept (compare_paired: a pixel that glints
+  // (selection_glint), is an outlier or not a number at either is left out
+  // of that pair alone). The lowest is the IoR whose mean paired change is
+  // lowest; the IoR moves there only when it lowers the loss by more than 2
+  // standard errors and by ior_scan_min_gain of the loss at the start; then
+  // the start is the vertex of the parabola through the changes at the
+  // lowest point and its two neighbours (the lowest point itself at an end
+  // of the list), kept between those neighbours. Recorded in ior_scan_.
   void scan_ior() {
     using clock = std::chrono::steady_clock;
     const auto t0 = clock::now();
+    const float before = scene_.ior;
     std::vector<float> iors;
     for (float x : config_.ior_scan_values)
       if (std::isfinite(x)) iors.push_back(std::clamp(x, config_.ior_min, config_.ior_max));
     std::sort(iors.begin(), iors.end());
     iors.erase(std::unique(iors.begin(), iors.end()), iors.end());
-    const float before = scene_.ior;
     io::Json record = {{"ior_before", before}, {"absorption", model_label(scene_.absorption_kind, scene_.absorption_res.x)}};
     if (iors.size() < 2) {
       record["start"] = before;
@@ -2299,9 +2312,17 @@ class Stage2 {
       ior_scan_ = record;
       return;
     }
+    // the IoR the scene had is one of the scanned ones (the pairs' reference)
+    const auto near_before = [before](float x) { return std::abs(x - before) <= 1e-4f; };
+    if (std::none_of(iors.begin(), iors.end(), near_before)) {
+      iors.push_back(before);
+      std::sort(iors.begin(), iors.end());
+    }
+    const std::size_t q0 = std::size_t(std::find_if(iors.begin(), iors.end(), near_before) - iors.begin());
+    const double nan = std::numeric_limits<double>::quiet_NaN();
     const int k = std::max(1, config_.pixel_samples);
-    std::vector<double> sum(iors.size(), 0.0);
-    std::size_t pixels = 0, left_out = 0;
+    // value[q]: every batch's pixels' losses at iors[q], NaN where left out
+    std::vector<std::vector<double>> value(iors.size());
     std::vector<Vec3f> adjoint(static_cast<std::size_t>(k));
     for (int b = 0; b < std::max(1, config_.ior_scan_batches); ++b) {
       std::mt19937_64 rng(config_.seed * 0x9FB21C651E98DF25ull + 0x10125CA4u + std::uint64_t(b));
@@ -2309,58 +2330,91 @@ class Stage2 {
       std::vector<Vec3f> target;
       draw_batch(rng, rays, target);
       const float glint = glint_level(target, config_.selection_glint);
-      // value[q][p]: pixel p's loss at iors[q]; keep[p] 0 when left out
-      std::vector<std::vector<double>> value(iors.size(), std::vector<double>(target.size(), 0.0));
-      std::vector<std::uint8_t> keep(target.size(), 1);
       for (std::size_t q = 0; q < iors.size(); ++q) {
         scene_.ior = iors[q];
         const std::vector<Vec3f> L = trace_batch(scene_, rays, config_.trace);
-        for (std::size_t p = 0; p < target.size() && (p + 1) * std::size_t(k) <= L.size(); ++p) {
-          const RayLoss l =
-              pixel_loss(L.data() + p * std::size_t(k), k, target[p], 1.0f, adjoint.data(), config_.colour_loss, glint);
-          if (l.skipped || !std::isfinite(l.value)) keep[p] = 0;
-          value[q][p] = l.value;
+        for (std::size_t p = 0; p < target.size(); ++p) {
+          double v = nan;
+          if ((p + 1) * std::size_t(k) <= L.size()) {
+            const RayLoss l = pixel_loss(L.data() + p * std::size_t(k), k, target[p], 1.0f, adjoint.data(),
+                                         config_.colour_loss, glint);
+            if (!l.skipped && std::isfinite(l.value)) v = l.value;
+          }
+          value[q].push_back(v);
         }
-      }
-      for (std::size_t p = 0; p < target.size(); ++p) {
-        if (!keep[p]) {
-          ++left_out;
-          continue;
-        }
-        ++pixels;
-        for (std::size_t q = 0; q < iors.size(); ++q) sum[q] += value[q][p];
       }
     }
-    std::vector<double> mean(iors.size(), std::numeric_limits<double>::quiet_NaN());
-    if (pixels > 0)
-      for (std::size_t q = 0; q < iors.size(); ++q) mean[q] = sum[q] / double(pixels);
+    // each IoR against the start, on the pixels both kept
+    std::vector<PairedComparison> against(iors.size());
+    std::vector<double> change(iors.size(), nan), change_se(iors.size(), nan), loss(iors.size(), nan);
+    std::vector<std::size_t> paired(iors.size(), 0);
+    for (std::size_t q = 0; q < iors.size(); ++q) {
+      against[q] = compare_paired(value[q0], value[q]);
+      paired[q] = against[q].pixels;
+      if (against[q].pixels == 0) continue;
+      change[q] = -against[q].gain;  // loss at iors[q] minus the start's
+      change_se[q] = against[q].standard_error;
+      loss[q] = against[q].richer;
+    }
+    const std::size_t scored = paired[q0];
+    std::size_t q = q0;
+    for (std::size_t i = 0; i < iors.size(); ++i)
+      if (std::isfinite(change[i]) && change[i] < change[q]) q = i;
+    const double sigmas = 2.0;
+    const bool moves = q != q0 && against[q].richer_wins(sigmas, config_.ior_scan_min_gain);
     float start = before;
-    if (pixels > 0) {
-      const std::size_t q = std::size_t(std::min_element(mean.begin(), mean.end()) - mean.begin());
+    if (moves) {
       start = iors[q];
-      if (q > 0 && q + 1 < iors.size()) {
+      if (q > 0 && q + 1 < iors.size() && std::isfinite(change[q - 1]) && std::isfinite(change[q + 1])) {
         const double x0 = iors[q - 1], x1 = iors[q], x2 = iors[q + 1];
-        const double y0 = mean[q - 1], y1 = mean[q], y2 = mean[q + 1];
+        const double y0 = change[q - 1], y1 = change[q], y2 = change[q + 1];
         // the parabola's vertex through the three points (any spacing)
         const double d = (x0 - x1) * (x0 - x2) * (x1 - x2);
         const double a = (x2 * (y1 - y0) + x1 * (y0 - y2) + x0 * (y2 - y1)) / d;
         const double bq = (x2 * x2 * (y0 - y1) + x1 * x1 * (y2 - y0) + x0 * x0 * (y1 - y2)) / d;
         if (a > 0.0 && std::isfinite(bq / a)) start = float(std::clamp(-bq / (2.0 * a), x0, x2));
       }
-      record["lowest"] = iors[q];
     }
     scene_.ior = start;
+    const double at_start = scored > 0 ? against[q].simpler : nan;  // the start's loss on the lowest's pairs
+    const double relative = scored > 0 && at_start > 0.0 ? change[q] / at_start : nan;
+    const double relative_se = scored > 0 && at_start > 0.0 ? change_se[q] / at_start : nan;
     record["iors"] = iors;
-    record["loss"] = mean;
-    record["pixels"] = pixels;
-    record["pixels_left_out"] = left_out;
+    record["loss"] = loss;
+    record["change"] = change;
+    record["change_se"] = change_se;
+    record["pixels_paired"] = paired;
+    record["pixels"] = scored;
+    record["pixels_left_out"] = value[q0].size() - scored;
+    record["lowest"] = iors[q];
+    record["lowest_change_relative"] = relative;
+    record["lowest_change_relative_se"] = relative_se;
+    record["rule"] = {{"sigmas", sigmas}, {"min_gain", config_.ior_scan_min_gain}};
+    record["moved"] = moves;
     record["start"] = start;
     record["seconds"] = std::chrono::duration<double>(clock::now() - t0).count();
-    char text[200];
-    std::snprintf(text, sizeof text, "IoR starts at %.4f: the lowest loss of %zu IoRs %.2f to %.2f (%s, %zu pixels)",
-                  double(start), iors.size(), double(iors.front()), double(iors.back()),
-                  model_label(scene_.absorption_kind, scene_.absorption_res.x).c_str(), pixels);
-    record["summary"] = pixels > 0 ? std::string(text) : "no pixels to scan: the IoR starts at " + std::to_string(before);
+    char text[320];
+    if (scored == 0)
+      std::snprintf(text, sizeof text, "no pixels to scan: the IoR starts at %.4f", double(before));
+    else if (moves)
+      std::snprintf(text, sizeof text,
+                    "IoR starts at %.4f: of %zu IoRs %.2f to %.2f the loss is lowest at %.2f, %+.2f %% ± %.2f %% "
+                    "against %.4f (%s, %zu pixels)",
+                    double(start), iors.size(), double(iors.front()), double(iors.back()), double(iors[q]),
+                    100.0 * relative, 100.0 * relative_se, double(before),
+                    model_label(scene_.absorption_kind, scene_.absorption_res.x).c_str(), scored);
+    else if (q == q0)
+      std::snprintf(text, sizeof text, "IoR stays at %.4f: no IoR of %zu, %.2f to %.2f, has a lower loss (%s, %zu pixels)",
+                    double(before), iors.size(), double(iors.front()), double(iors.back()),
+                    model_label(scene_.absorption_kind, scene_.absorption_res.x).c_str(), scored);
+    else
+      std::snprintf(text, sizeof text,
+                    "IoR stays at %.4f: the scan's lowest loss, at %.2f, is %+.2f %% ± %.2f %% against it, not "
+                    "beyond %.0f standard errors and %.1f %% (%s, %zu pixels)",
+                    double(before), double(iors[q]), 100.0 * relative, 100.0 * relative_se, sigmas,
+                    100.0 * double(config_.ior_scan_min_gain),
+                    model_label(scene_.absorption_kind, scene_.absorption_res.x).c_str(), scored);
+    record["summary"] = std::string(text);
     ior_scan_ = record;
   }
 

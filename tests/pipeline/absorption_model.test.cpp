@@ -163,14 +163,14 @@ TEST_CASE("stage 2 starts the IoR where a scan's loss is lowest: a clear sphere 
   // 1.5 left the absorption choice's candidates short of the truth, where an
   // absorption can stand in for the IoR they had not reached (spot at 1.8
   // got a false homogeneous σ). The scan traces fixed batches at each IoR of
-  // ior_scan_values and starts at the lowest. Here, without it, the sphere
-  // still keeps "none" but the fit restarts at 1.50, 0.3 from the truth.
+  // ior_scan_values and starts at the lowest when it beats the start by the
+  // rule. Here, without it, the sphere still keeps "none" but the fit
+  // restarts at 1.50, 0.3 from the truth.
   const dr::HostScene truth = sphere(1.8f);
   const dt_test::Photos photos = dt_test::photograph(truth, 16, 32);
   dr::HostScene s = sphere(1.5f);
   pipeline::Stage2Config cfg = choice_config();  // ior_init 1.5: the scan replaces it
-  REQUIRE_FALSE(cfg.ior_scan);  // off by default (a flat loss misleads it)
-  cfg.ior_scan = true;
+  REQUIRE(cfg.ior_scan);  // on by default
   pipeline::Stage2 st(s, dt_test::views_of(photos), {}, cfg);
   CHECK(st.ior_scan().is_null());  // not before the first step
   st.step();
@@ -193,6 +193,19 @@ TEST_CASE("stage 2 starts the IoR where a scan's loss is lowest: a clear sphere 
   CHECK(start > iors[lowest - 1]);
   CHECK(start < iors[lowest + 1]);
   CHECK(scan["ior_before"].get<double>() == doctest::Approx(1.5));
+  CHECK(scan["moved"].get<bool>());
+  // each IoR against the start on the pixels both kept: no change at the
+  // start itself, a loss lower beyond the rule's bar at the lowest point
+  const auto change = scan["change"].get<std::vector<double>>();
+  const auto paired = scan["pixels_paired"].get<std::vector<std::size_t>>();
+  const std::size_t at_start = std::size_t(std::find_if(iors.begin(), iors.end(), [](double x) {
+                                             return std::abs(x - 1.5) < 1e-4;
+                                           }) - iors.begin());
+  REQUIRE(at_start < iors.size());
+  CHECK(change[at_start] == 0.0);
+  CHECK(paired[at_start] == scan["pixels"].get<std::size_t>());
+  CHECK(scan["lowest_change_relative"].get<double>() < -cfg.ior_scan_min_gain);
+  CHECK(scan["lowest_change_relative"].get<double>() < -2.0 * scan["lowest_change_relative_se"].get<double>());
   // the absorption choice then starts there: the clear sphere stays clear
   const difftrans::io::Json& choice = st.absorption_choice();
   REQUIRE(choice.is_object());
@@ -201,6 +214,25 @@ TEST_CASE("stage 2 starts the IoR where a scan's loss is lowest: a clear sphere 
   CHECK(s.absorption_kind == ds::AbsorptionKind::none);
   CHECK(std::abs(s.ior - 1.8f) < 0.03f);
 
+  // a gain short of the rule's bar leaves the IoR where it was: the same
+  // photographs, the same lowest point, but a minimum gain no IoR can reach
+  {
+    pipeline::Stage2Config strict = cfg;
+    strict.iterations = 1;
+    strict.absorption_model = pipeline::AbsorptionModel::none;
+    strict.ior_scan_min_gain = 0.99f;
+    dr::HostScene t = sphere(1.5f);
+    pipeline::Stage2 other(t, dt_test::views_of(photos), {}, strict);
+    other.step();
+    const difftrans::io::Json& held = other.ior_scan();
+    REQUIRE(held.is_object());
+    MESSAGE(held["summary"].get<std::string>());
+    CHECK_FALSE(held["moved"].get<bool>());
+    CHECK(held["lowest"].get<double>() == doctest::Approx(1.8).epsilon(1e-4));
+    CHECK(held["start"].get<double>() == doctest::Approx(1.5));
+    CHECK(held["summary"].get<std::string>().find("stays at 1.5") != std::string::npos);
+    CHECK(t.ior == doctest::Approx(1.5f).epsilon(0.01));
+  }
   // no scan when the IoR is not fitted or a start is given
   {
     for (const bool fitted : {false, true}) {
