@@ -1996,7 +1996,7 @@ class Stage2 {
       const PairedComparison c = compare_paired(simpler, richer);
       const bool wins = c.richer_wins(sigmas, min_gain);
       short_of_gain = c.short_of_min_gain(sigmas, min_gain);
-      const double rel = c.simpler > 0.0 ? c.gain / c.simpler : 0.0, rel_se = c.simpler > 0.0 ? c.standard_error / c.simpler : 0.0;
+      const double rel = c.relative_gain(), rel_se = c.relative_standard_error();
       comparisons.push_back({{"simpler", simpler_name},
                              {"richer", richer_name},
                              {"pixels", c.pixels},
@@ -2305,7 +2305,8 @@ class Stage2 {
       if (std::isfinite(x)) iors.push_back(std::clamp(x, config_.ior_min, config_.ior_max));
     std::sort(iors.begin(), iors.end());
     iors.erase(std::unique(iors.begin(), iors.end()), iors.end());
-    io::Json record = {{"ior_before", before}, {"absorption", model_label(scene_.absorption_kind, scene_.absorption_res.x)}};
+    const std::string model = model_label(scene_.absorption_kind, scene_.absorption_res.x);
+    io::Json record = {{"ior_before", before}, {"absorption", model}};
     if (iors.size() < 2) {
       record["start"] = before;
       record["summary"] = "fewer than two IoRs to scan: the IoR starts at " + std::to_string(before);
@@ -2346,17 +2347,12 @@ class Stage2 {
     }
     // each IoR against the start, on the pixels both kept
     std::vector<PairedComparison> against(iors.size());
-    std::vector<double> change(iors.size(), nan), change_se(iors.size(), nan), loss(iors.size(), nan);
-    std::vector<std::size_t> paired(iors.size(), 0);
+    std::vector<double> change(iors.size(), nan);  // loss at iors[q] minus the start's
     for (std::size_t q = 0; q < iors.size(); ++q) {
       against[q] = compare_paired(value[q0], value[q]);
-      paired[q] = against[q].pixels;
-      if (against[q].pixels == 0) continue;
-      change[q] = -against[q].gain;  // loss at iors[q] minus the start's
-      change_se[q] = against[q].standard_error;
-      loss[q] = against[q].richer;
+      if (against[q].pixels > 0) change[q] = -against[q].gain;
     }
-    const std::size_t scored = paired[q0];
+    const std::size_t scored = against[q0].pixels;
     std::size_t q = q0;
     for (std::size_t i = 0; i < iors.size(); ++i)
       if (std::isfinite(change[i]) && change[i] < change[q]) q = i;
@@ -2376,9 +2372,18 @@ class Stage2 {
       }
     }
     scene_.ior = start;
-    const double at_start = scored > 0 ? against[q].simpler : nan;  // the start's loss on the lowest's pairs
-    const double relative = scored > 0 && at_start > 0.0 ? change[q] / at_start : nan;
-    const double relative_se = scored > 0 && at_start > 0.0 ? change_se[q] / at_start : nan;
+    // the lowest's change as a fraction of the start's loss on the same pixels
+    const bool relative_defined = scored > 0 && against[q].simpler > 0.0;
+    const double relative = relative_defined ? -against[q].relative_gain() : nan;
+    const double relative_se = relative_defined ? against[q].relative_standard_error() : nan;
+    std::vector<double> loss(iors.size(), nan), change_se(iors.size(), nan);
+    std::vector<std::size_t> paired(iors.size(), 0);
+    for (std::size_t i = 0; i < iors.size(); ++i) {
+      paired[i] = against[i].pixels;
+      if (paired[i] == 0) continue;
+      loss[i] = against[i].richer;  // the mean at iors[i] on its pairs
+      change_se[i] = against[i].standard_error;
+    }
     record["iors"] = iors;
     record["loss"] = loss;
     record["change"] = change;
@@ -2401,19 +2406,16 @@ class Stage2 {
                     "IoR starts at %.4f: of %zu IoRs %.2f to %.2f the loss is lowest at %.2f, %+.2f %% ± %.2f %% "
                     "against %.4f (%s, %zu pixels)",
                     double(start), iors.size(), double(iors.front()), double(iors.back()), double(iors[q]),
-                    100.0 * relative, 100.0 * relative_se, double(before),
-                    model_label(scene_.absorption_kind, scene_.absorption_res.x).c_str(), scored);
+                    100.0 * relative, 100.0 * relative_se, double(before), model.c_str(), scored);
     else if (q == q0)
       std::snprintf(text, sizeof text, "IoR stays at %.4f: no IoR of %zu, %.2f to %.2f, has a lower loss (%s, %zu pixels)",
-                    double(before), iors.size(), double(iors.front()), double(iors.back()),
-                    model_label(scene_.absorption_kind, scene_.absorption_res.x).c_str(), scored);
+                    double(before), iors.size(), double(iors.front()), double(iors.back()), model.c_str(), scored);
     else
       std::snprintf(text, sizeof text,
                     "IoR stays at %.4f: the scan's lowest loss, at %.2f, is %+.2f %% ± %.2f %% against it, not "
                     "beyond %.0f standard errors and %.1f %% (%s, %zu pixels)",
                     double(before), double(iors[q]), 100.0 * relative, 100.0 * relative_se, sigmas,
-                    100.0 * double(config_.ior_scan_min_gain),
-                    model_label(scene_.absorption_kind, scene_.absorption_res.x).c_str(), scored);
+                    100.0 * double(config_.ior_scan_min_gain), model.c_str(), scored);
     record["summary"] = std::string(text);
     ior_scan_ = record;
   }

@@ -32,6 +32,9 @@ struct PairedComparison {
   bool short_of_min_gain(double sigmas, double min_gain) const {
     return richer_wins(sigmas, 0.0) && !richer_wins(sigmas, min_gain);
   }
+  // the gain and its standard error as fractions of the simpler one's loss (0 where that is not positive)
+  double relative_gain() const { return simpler > 0.0 ? gain / simpler : 0.0; }
+  double relative_standard_error() const { return simpler > 0.0 ? standard_error / simpler : 0.0; }
 };
 
 inline PairedComparison compare_paired(const std::vector<double>& simpler, const std::vector<double>& richer) {

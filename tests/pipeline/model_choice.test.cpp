@@ -27,6 +27,9 @@ TEST_CASE("paired comparison: the mean difference, its standard error, pixels le
   CHECK(c.short_of_min_gain(2.0, 0.2));        // ... but beyond 2 standard errors
   CHECK_FALSE(c.short_of_min_gain(4.0, 0.2));  // not significant either
   CHECK_FALSE(c.short_of_min_gain(2.0, 0.1));  // kept outright
+  CHECK(c.relative_gain() == doctest::Approx(2.0 / 12.0));  // of the simpler one's loss on the same pixels
+  CHECK(c.relative_standard_error() == doctest::Approx(1.0 / std::sqrt(3.0) / 12.0));
+  CHECK(pipeline::compare_paired({nan}, {1.0}).relative_gain() == 0.0);  // no pixels: no loss to divide by
   // the richer one worse: never kept
   const pipeline::PairedComparison w = pipeline::compare_paired(richer, simpler);
   CHECK(w.gain == doctest::Approx(-2.0));
