@@ -10,11 +10,13 @@
 // Each iteration processes every camera ray once (items = camera rays), so
 // the printed ratios are time per camera ray relative to the accelerator alone.
 // Targets: primal at depth 4 within 2x Embree; gradient within 4x primal.
-// horse/absorption/*: primal and gradient at stage 2's training settings for
-// each absorption model (none, homogeneous, grids of 4³ and 16³), as ratios
-// to the clear primal. */d16/*: depth 16, the tape of a camera ray (mean and
-// largest) with the whole tape and streamed (render::trace_streamed), for
-// the whole tree, roulette below 0.01 and stage 2's training settings.
+// horse/absorption/*: primal, gradient and recomputed gradient at stage 2's
+// training settings for each absorption model (none, homogeneous, grids of 4³
+// and 16³), as ratios to the clear primal. */d16/*: depth 16 through clear
+// glass, the tape of a camera ray (mean and largest) with the whole tape,
+// streamed (render::trace_streamed) and recomputed (render::trace_recomputed:
+// half a segment's tape at a time), for the whole tree, roulette below 0.01
+// and stage 2's training settings.
 #include <algorithm>
 #include <cstdint>
 #include <cstdio>
@@ -26,6 +28,7 @@
 
 #include "difftrans/io/mesh_file.hpp"
 #include "difftrans/render/host_scene.hpp"
+#include "difftrans/render/recomputed_trace.hpp"
 #include "difftrans/scene/camera.hpp"
 #include "support/ratio_reporter.hpp"
 
@@ -113,9 +116,9 @@ dr::TraceSettings training_settings() {
 // length everywhere: light enough that every model traces the same branches
 // as clear glass (pruning follows the throughput), so the ratios are the
 // cost of the integration alone.
-enum class Absorption { unchanged, none, homogeneous, grid4, grid16 };
+// Each benchmark sets its own (the workload's scene is shared).
+enum class Absorption { none, homogeneous, grid4, grid16 };
 void set_absorption(dr::HostScene& s, Absorption a) {
-  if (a == Absorption::unchanged) return;
   if (a == Absorption::none) {
     s.absorption_kind = difftrans::scene::AbsorptionKind::none;
     s.absorption_raw.clear();
@@ -149,11 +152,15 @@ void primal(benchmark::State& state, std::string name, dr::TraceSettings ts, Abs
   state.SetItemsProcessed(state.iterations() * std::int64_t(w.rays.size()));
 }
 
-// streamed: trace_streamed, the gradient swept back branch by branch as the
-// tree is traced (tape_bytes_* count each ray's peak); else trace<Var> with
-// the whole tape, then one sweep.
+// How the gradient pass keeps its tape. streamed: trace_streamed, the
+// gradient swept back branch by branch as the tree is traced; recomputed:
+// trace_recomputed, each segment traced again on a tape of its own when its
+// subtrees are done (tape_bytes_* count each ray's peak for both); whole:
+// trace<Var> with the whole tape, then one sweep.
+enum class TapeMode { whole, streamed, recomputed };
+
 void gradient(benchmark::State& state, std::string name, dr::TraceSettings ts, Absorption absorption,
-              bool streamed) {
+              TapeMode mode) {
   using V = ad::Var<float>;
   Workload& w = workload(name);
   set_absorption(*w.scene, absorption);
@@ -168,9 +175,11 @@ void gradient(benchmark::State& state, std::string name, dr::TraceSettings ts, A
   const difftrans::Vec3<float> adjoint(1.0f);
   for (auto _ : state)
     for (const auto& r : w.rays) {
-      if (streamed) {
+      if (mode != TapeMode::whole) {
         benchmark::DoNotOptimize(
-            dr::trace_streamed<float>(view, w.scene->accel(), reader, r.origin, r.direction, adjoint, ts));
+            mode == TapeMode::streamed
+                ? dr::trace_streamed<float>(view, w.scene->accel(), reader, r.origin, r.direction, adjoint, ts)
+                : dr::trace_recomputed<float>(view, w.scene->accel(), reader, r.origin, r.direction, adjoint, ts));
         nodes += tape.peak();
         most = std::max(most, double(tape.peak()));
         rays += 1;
@@ -202,6 +211,7 @@ void gradient(benchmark::State& state, std::string name, dr::TraceSettings ts, A
 void dual_ior(benchmark::State& state, std::string name, int depth) {
   using D = ad::Dual<float, 1>;
   Workload& w = workload(name);
+  set_absorption(*w.scene, Absorption::none);
   // only the IoR carries a tangent: every other unknown is read as a constant
   for (int b = 0; b < dr::param_count; ++b) w.scene->differentiate[b] = b == dr::param_ior;
   const dr::SceneView view = w.scene->view(true);
@@ -230,10 +240,10 @@ int main(int argc, char** argv) {
     for (int depth : {4, 8}) {
       const std::string prefix = name + "/d" + std::to_string(depth) + "/";
       benchmark::RegisterBenchmark((prefix + baseline).c_str(), accel_alone, name, depth)->Unit(benchmark::kMillisecond);
-      benchmark::RegisterBenchmark((prefix + "primal").c_str(), primal, name, settings(depth), Absorption::unchanged)
+      benchmark::RegisterBenchmark((prefix + "primal").c_str(), primal, name, settings(depth), Absorption::none)
           ->Unit(benchmark::kMillisecond);
       benchmark::RegisterBenchmark((prefix + "gradient").c_str(), gradient, name, settings(depth),
-                                   Absorption::unchanged, false)
+                                   Absorption::none, TapeMode::whole)
           ->Unit(benchmark::kMillisecond);
       benchmark::RegisterBenchmark((prefix + "dual_ior").c_str(), dual_ior, name, depth)->Unit(benchmark::kMillisecond);
       groups.emplace_back(prefix, prefix + baseline);
@@ -250,26 +260,31 @@ int main(int argc, char** argv) {
     const std::string prefix = std::string("horse/absorption/") + label + "/";
     benchmark::RegisterBenchmark((prefix + "primal").c_str(), primal, "horse", training_settings(), model)
         ->Unit(benchmark::kMillisecond);
-    benchmark::RegisterBenchmark((prefix + "gradient").c_str(), gradient, "horse", training_settings(), model, false)
+    benchmark::RegisterBenchmark((prefix + "gradient").c_str(), gradient, "horse", training_settings(), model, TapeMode::whole)
+        ->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark((prefix + "recomputed").c_str(), gradient, "horse", training_settings(), model,
+                                 TapeMode::recomputed)
         ->Unit(benchmark::kMillisecond);
   }
   groups.emplace_back("horse/absorption/", "horse/absorption/none/primal");
   // The tape of one camera ray at depth 16 (counters tape_bytes_per_ray and
-  // tape_bytes_max): the whole Fresnel tree, Russian roulette below 0.01, and
-  // stage 2's training settings; times relative to the whole tree's primal.
+  // tape_bytes_max) through clear glass: the whole Fresnel tree, Russian
+  // roulette below 0.01, and stage 2's training settings; times relative to
+  // the whole tree's primal.
   for (const std::string name : {"spot", "bunny", "horse"}) {
     const std::string prefix = name + "/d16/";
     dr::TraceSettings roulette = settings(16);
     roulette.roulette = true;
     roulette.prune_throughput = 0.01f;
-    benchmark::RegisterBenchmark((prefix + "primal").c_str(), primal, name, settings(16), Absorption::unchanged)
+    benchmark::RegisterBenchmark((prefix + "primal").c_str(), primal, name, settings(16), Absorption::none)
         ->Unit(benchmark::kMillisecond);
     const std::pair<const char*, dr::TraceSettings> variants[] = {
         {"", settings(16)}, {"_roulette", roulette}, {"_training", training_settings()}};
-    for (const bool streamed : {false, true})
+    const std::pair<const char*, TapeMode> modes[] = {
+        {"gradient", TapeMode::whole}, {"streamed", TapeMode::streamed}, {"recomputed", TapeMode::recomputed}};
+    for (const auto& [label, mode] : modes)
       for (const auto& [suffix, ts] : variants)
-        benchmark::RegisterBenchmark((prefix + (streamed ? "streamed" : "gradient") + suffix).c_str(), gradient, name,
-                                     ts, Absorption::unchanged, streamed)
+        benchmark::RegisterBenchmark((prefix + label + suffix).c_str(), gradient, name, ts, Absorption::none, mode)
             ->Unit(benchmark::kMillisecond);
     groups.emplace_back(prefix, prefix + "primal");
   }

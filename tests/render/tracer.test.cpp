@@ -3,11 +3,14 @@
 // sphere's central ray, the white furnace — its gradients against central
 // finite differences in double (vertices, IoR, homogeneous and grid
 // absorption, environment texels; sphere, cube, spot), forward against
-// reverse mode (the hard cases are in hard_cases.test.cpp). Near-field
-// escapes: rays that leave the object read a radiance field (or a room) at
-// their own origin and direction.
+// reverse mode (the hard cases are in hard_cases.test.cpp), the streamed
+// reverse mode against the whole tape (the recomputed one:
+// recomputed_trace.test.cpp; the helpers of both: support/trace_gradients.hpp).
+// Near-field escapes: rays that leave the object read a radiance field (or a
+// room) at their own origin and direction.
 #include "support/ad_check.hpp"
 #include "support/shapes.hpp"
+#include "support/trace_gradients.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -28,16 +31,6 @@ using difftrans::render::TraceStats;
 
 namespace {
 
-struct TestRay {
-  Vec3f o, d;
-};
-
-HostScene make_scene(const Shape& shape, float ior) {
-  HostScene s(shape.positions, shape.triangles, "test mesh");
-  s.ior = ior;
-  return s;
-}
-
 // An environment that is A towards −Z (the map's centre columns) and B
 // towards +Z (the seam columns): 8 × 2 texels, so the lookup is exactly A
 // for u in [0.3125, 0.6875] and exactly B within 0.1875 of the seam.
@@ -49,105 +42,6 @@ void two_sided_environment(HostScene& s, const Vec3f& A, const Vec3f& B) {
       t.insert(t.end(), {c.x, c.y, c.z});
     }
   s.set_environment_map(t, 8, 2);
-}
-
-// A smooth, varied environment for gradient tests.
-void smooth_environment(HostScene& s, int w = 24, int h = 12) {
-  s.set_environment_map(smooth_sky(w, h), w, h);
-}
-
-template <class S>
-Vec3d trace_value(const HostScene& s, const TestRay& r, const TraceSettings& ts, TraceStats* st = nullptr) {
-  const ad::ParamSet params = s.params();
-  ad::ParamReader<S> reader(&params);
-  return to_d(difftrans::render::trace<S>(s.view(false), s.accel(), reader, r.o, r.d, ts, st));
-}
-
-// Loss = Σ_rays w · L(ray), in double.
-double loss(const HostScene& s, const std::vector<TestRay>& rays, const Vec3d& w, const TraceSettings& ts) {
-  double sum = 0;
-  for (const auto& r : rays) sum += glm::dot(trace_value<double>(s, r, ts), w);
-  return sum;
-}
-
-// Reverse-mode gradient of the loss in Var<double>; also reports tape sizes.
-SceneGradient loss_gradient(const HostScene& s, const std::vector<TestRay>& rays, const Vec3d& w,
-                            const TraceSettings& ts, bool* all_finite_out = nullptr) {
-  using V = ad::Var<double>;
-  SceneGradient g(s);
-  ad::ParamSet params = s.params();
-  g.attach(params);
-  ad::Tape<double> tape(1 << 20);
-  std::vector<ad::LeafRecord> log(1 << 16);
-  ad::ParamReader<V> reader(&params, &tape, log.data(), std::int32_t(log.size()));
-  bool finite = true;
-  for (const auto& r : rays) {
-    tape.reset();
-    reader.clear();
-    const Vec3<V> L = difftrans::render::trace<V>(s.view(true, true), s.accel(), reader, r.o, r.d, ts);
-    REQUIRE_FALSE(tape.overflowed());
-    REQUIRE_FALSE(reader.overflowed());
-    finite = finite && all_finite(L);
-    tape.zero_adjoints();
-    for (int c = 0; c < 3; ++c) tape.seed(L[c], w[c]);
-    tape.propagate();
-    reader.scatter();
-  }
-  g.fold_normals(s);
-  for (auto* v : {&g.positions, &g.ior, &g.absorption, &g.environment})
-    for (float x : *v) finite = finite && std::isfinite(x);
-  if (all_finite_out) *all_finite_out = finite;
-  return g;
-}
-
-// The same gradient by the streamed reverse mode (trace_streamed); also the
-// largest tape it held and the largest full tape of trace<Var> on the same rays.
-SceneGradient streamed_gradient(const HostScene& s, const std::vector<TestRay>& rays, const Vec3d& w,
-                                const TraceSettings& ts, std::vector<Vec3d>* radiance, std::int32_t* peak) {
-  using V = ad::Var<double>;
-  SceneGradient g(s);
-  ad::ParamSet params = s.params();
-  g.attach(params);
-  ad::Tape<double> tape(1 << 20);
-  std::vector<ad::LeafRecord> log(1 << 16);
-  ad::ParamReader<V> reader(&params, &tape, log.data(), std::int32_t(log.size()));
-  *peak = 0;
-  for (const auto& r : rays) {
-    const Vec3<double> L =
-        difftrans::render::trace_streamed<double>(s.view(true, true), s.accel(), reader, r.o, r.d, w, ts);
-    REQUIRE_FALSE(tape.overflowed());
-    REQUIRE_FALSE(reader.overflowed());
-    CHECK(reader.size() == 0);  // every leaf scattered
-    radiance->push_back(Vec3d(L));
-    *peak = std::max(*peak, tape.peak());
-  }
-  g.fold_normals(s);
-  return g;
-}
-
-// trace<Var> on each ray with the whole tape: the tapes' total and largest
-// length, and the radiance.
-struct WholeTape {
-  std::int64_t total = 0;
-  std::int32_t peak = 0;
-  std::vector<Vec3d> radiance;
-};
-WholeTape whole_tape(const HostScene& s, const std::vector<TestRay>& rays, const TraceSettings& ts) {
-  using V = ad::Var<double>;
-  ad::ParamSet params = s.params();
-  ad::Tape<double> tape(1 << 20);
-  std::vector<ad::LeafRecord> log(1 << 16);
-  ad::ParamReader<V> reader(&params, &tape, log.data(), std::int32_t(log.size()));
-  WholeTape out;
-  for (const auto& r : rays) {
-    tape.reset();
-    reader.clear();
-    const Vec3<V> L = difftrans::render::trace<V>(s.view(true, true), s.accel(), reader, r.o, r.d, ts);
-    out.radiance.emplace_back(L.x.value, L.y.value, L.z.value);
-    out.total += tape.size();
-    out.peak = std::max(out.peak, tape.size());
-  }
-  return out;
 }
 
 // The entries of `grad` with the largest magnitude.
@@ -212,17 +106,6 @@ void check_against_differences(HostScene& s, const std::vector<TestRay>& rays, c
   for (std::size_t i : largest(g.absorption, 6)) check("absorption", g.absorption[i], s.absorption_raw[i], 1e-3, nothing);
   CHECK(checked >= 11);
   CHECK(kinks <= checked / 4);
-}
-
-// Rays from a camera at `eye` towards jittered points around the origin.
-std::vector<TestRay> rays_towards_centre(const Vec3f& eye, float spread, int count) {
-  std::vector<TestRay> rays;
-  for (int i = 0; i < count; ++i) {
-    const float a = 2.399963f * float(i), r = spread * std::sqrt((i + 0.5f) / float(count));
-    const Vec3f target(r * std::cos(a), r * std::sin(a), 0.05f * float(i % 3));
-    rays.push_back({eye, glm::normalize(target - eye)});
-  }
-  return rays;
 }
 
 // Slab transfer at one interface pair: single-interface R, internal
@@ -522,31 +405,9 @@ TEST_CASE("streamed reverse mode: the same gradient on a tape bounded by the dep
   smooth_environment(s);
   const auto rays = rays_towards_centre(Vec3f(0.2f, 0.4f, 3.0f), 0.45f, 12);
   const Vec3d w(0.7, 1.0, 1.3);
-  TraceSettings tree;
-  tree.max_depth = 10;
-  TraceSettings drawn = tree;  // one path beyond 3 interactions, roulette below 0.05
-  drawn.max_depth = 16;
-  drawn.tree_depth = 3;
-  drawn.roulette = true;
-  drawn.prune_throughput = 0.05f;
-  TraceSettings main_path = tree;
-  main_path.gradient_refractions = 2;
-  struct Case {
-    const char* name;
-    TraceSettings ts;
-    int absorption;  // 0 none, 1 homogeneous, 2 grid
-  };
-  for (const Case& c : {Case{"full tree, clear", tree, 0}, Case{"full tree, homogeneous", tree, 1},
-                        Case{"full tree, grid", tree, 2}, Case{"drawn path and roulette", drawn, 2},
-                        Case{"main refraction path", main_path, 1}}) {
+  for (const GradientCase& c : gradient_cases()) {
     CAPTURE(c.name);
-    if (c.absorption == 1) s.set_homogeneous_absorption(Vec3f(0.5f, 1.0f, 2.0f));
-    if (c.absorption == 2) {
-      std::vector<float> raw;
-      for (int i = 0; i < 4 * 4 * 4; ++i)
-        for (int k = 0; k < 3; ++k) raw.push_back(difftrans::scene::raw_from_sigma(0.3f + 0.1f * float((i * 7 + k) % 5)));
-      s.set_grid_absorption(difftrans::Vec3i(4), Vec3f(-0.6f), Vec3f(0.6f), std::move(raw));
-    }
+    set_case_absorption(s, c.absorption);
     const SceneGradient full = loss_gradient(s, rays, w, c.ts);
     std::vector<Vec3d> radiance;
     std::int32_t peak = 0;
@@ -554,44 +415,26 @@ TEST_CASE("streamed reverse mode: the same gradient on a tape bounded by the dep
     // the radiance, and every gradient entry, to float rounding of the sums
     for (std::size_t i = 0; i < rays.size(); ++i)
       for (int k = 0; k < 3; ++k) CHECK(radiance[i][k] == doctest::Approx(trace_value<double>(s, rays[i], c.ts)[k]).epsilon(1e-12));
-    const auto same = [](const std::vector<float>& a, const std::vector<float>& b, const char* what) {
-      CAPTURE(what);
-      REQUIRE(a.size() == b.size());
-      float scale = 0.0f, worst = 0.0f;
-      for (std::size_t i = 0; i < a.size(); ++i) {
-        scale = std::max(scale, std::abs(a[i]));
-        worst = std::max(worst, std::abs(a[i] - b[i]));
-      }
-      CHECK(worst <= 1e-5f * std::max(scale, 1e-12f));
-      return scale;
-    };
-    CHECK(same(full.positions, streamed.positions, "positions") > 0.0f);
-    CHECK(same(full.ior, streamed.ior, "ior") > 0.0f);
-    same(full.environment, streamed.environment, "environment");
-    const float absorption_scale = same(full.absorption, streamed.absorption, "absorption");
+    CHECK(same_gradient(full.positions, streamed.positions, "positions") > 0.0f);
+    CHECK(same_gradient(full.ior, streamed.ior, "ior") > 0.0f);
+    same_gradient(full.environment, streamed.environment, "environment");
+    const float absorption_scale = same_gradient(full.absorption, streamed.absorption, "absorption");
     CHECK((c.absorption == 0) == (absorption_scale == 0.0f));
     // the whole tree's tape against the streamed tape's peak
     const std::int32_t full_peak = whole_tape(s, rays, c.ts).peak;
-    MESSAGE(c.name, ": largest tape ", full_peak, " nodes, streamed ", peak);
+    MESSAGE(std::string(c.name), ": largest tape ", full_peak, " nodes, streamed ", peak);
     CHECK(peak <= full_peak);  // a sphere's tree is nearly a chain: little to gain
   }
   SUBCASE("spot's bushy tree at depth 16: the largest tape shrinks from the tree to a path") {
-    HostScene spot = make_scene(load_normalized_mesh(std::string(DIFFTRANS_DATA_DIR) + "/meshes/spot.obj"), 1.472f);
-    smooth_environment(spot);
+    const HostScene spot = spot_scene();
+    const auto through = rays_through_spot();
     TraceSettings deep;
     deep.max_depth = 16;
-    const auto through = rays_towards_centre(Vec3f(0.4f, 0.5f, 3.0f), 0.3f, 16);
     const SceneGradient full = loss_gradient(spot, through, w, deep);
     std::vector<Vec3d> radiance;
     std::int32_t peak = 0;
     const SceneGradient streamed = streamed_gradient(spot, through, w, deep, &radiance, &peak);
-    float scale = 0.0f, worst = 0.0f;
-    for (std::size_t i = 0; i < full.positions.size(); ++i) {
-      scale = std::max(scale, std::abs(full.positions[i]));
-      worst = std::max(worst, std::abs(full.positions[i] - streamed.positions[i]));
-    }
-    CHECK(scale > 0.0f);
-    CHECK(worst <= 1e-5f * scale);
+    CHECK(same_gradient(full.positions, streamed.positions, "positions") > 0.0f);
     const std::int32_t full_peak = whole_tape(spot, through, deep).peak;
     MESSAGE("spot at depth 16: largest tape ", full_peak, " nodes, streamed ", peak);
     CHECK(2 * peak < full_peak);

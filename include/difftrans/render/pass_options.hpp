@@ -18,6 +18,11 @@ struct PassOptions {
   int samples_per_axis = 1;                  // n: n² sub-pixel samples at the centres of an n×n grid
   std::int32_t tape_capacity = 1 << 20;      // nodes per ray (reverse mode)
   std::int32_t leaf_log_capacity = 1 << 16;  // parameter leaves per ray (reverse mode)
+  // Reverse mode: each segment traced again when its subtrees are done
+  // (render::trace_recomputed), on a tape of one segment, instead of the
+  // path from the camera kept on it (render::trace_streamed); the same
+  // gradient, each segment traced twice.
+  bool recompute = false;
 };
 
 // The image (value) and its derivative along one direction in parameter

@@ -3,7 +3,9 @@
 //   render_gradient    reverse mode: given dLoss/dpixel, the gradient of the
 //                      loss w.r.t. every parameter buffer (one tape per worker,
 //                      each ray streamed through it: render/tracer.hpp,
-//                      trace_streamed; leaf adjoints scattered as it goes);
+//                      trace_streamed, or trace_recomputed with
+//                      PassOptions::recompute; leaf adjoints scattered as it
+//                      goes);
 //   render_derivative  forward mode: the image and its derivative along one
 //                      direction in parameter space (Dual<float, 1>).
 // Pixel values are box-filtered over n×n stratified sub-pixel positions.
@@ -21,6 +23,7 @@
 #include "difftrans/render/gradient_sums.hpp"
 #include "difftrans/render/host_scene.hpp"
 #include "difftrans/render/pass_options.hpp"
+#include "difftrans/render/recomputed_trace.hpp"
 #include "difftrans/scene/camera.hpp"
 
 namespace difftrans::render {
@@ -153,7 +156,8 @@ std::vector<float> render_gradient(const HostScene& s, const scene::Camera& cam,
       const Vec3<T> adjoint(T(wt * a[0]), T(wt * a[1]), T(wt * a[2]));
       Vec3<T> L;
       s.with_escape([&](const auto& escape) {
-        L = trace_streamed<T>(view, s.accel(), reader, o, d, adjoint, opt.trace, &ps.trace, escape);
+        L = opt.recompute ? trace_recomputed<T>(view, s.accel(), reader, o, d, adjoint, opt.trace, &ps.trace, escape)
+                          : trace_streamed<T>(view, s.accel(), reader, o, d, adjoint, opt.trace, &ps.trace, escape);
       });
       ++ps.rays;
       ps.tape_nodes += tape->peak();

@@ -242,28 +242,35 @@ struct StreamBranches {
   }
 };
 
-// One branch's segment: it is sent to the BVH and either leaves the object,
-// and light(weight × what it sees) is called, or it meets the surface, where
-// its Fresnel children (the reflection first, then the refraction) are made
-// and child(branch) is called for each that survives the depth cut, the
-// drawn choice and the roulette; a branch that ends (cut, pruned, a
-// degenerate triangle) calls neither. The loop of follow() and the queued
-// branches of the device image (cuda/wavefront.hpp) both take their
-// branches through it. ray_hash: the camera ray's (camera_ray_hash); eta:
-// the IoR.
-template <class S, class Accel, class Reader, class Escape, class Light, class Child>
-DT_HOST_DEVICE DT_FORCEINLINE void interact(const SceneView& scene, const Accel& accel, Reader& reader,
-                                            const Branch<S>& b, const S& eta, std::uint64_t ray_hash,
-                                            const TraceSettings& settings, TraceStats& local, const Escape& escape,
-                                            Light&& light, Child&& child) {
+// Where one branch's segment ends: it left the object (its light has been
+// delivered) or stopped (depth cut, a degenerate triangle) — `more` false —
+// or it meets the surface at p, with the geometric normal ng (its value
+// only is used beyond this point), the shading normal n and the branch's
+// weight after the segment's absorption; cos_geo: the cosine of the
+// geometric normal with the way back (> 0: the branch came from outside).
+template <class S>
+struct SegmentEnd {
+  bool more = false;
+  Vec3<S> p, ng, n, weight;
+  ad::scalar_t<S> cos_geo = 0;
+};
+
+// The first half of interact(): the segment is sent to the BVH; a branch
+// that leaves the object calls light(weight × what it sees); one that meets
+// the surface is re-evaluated there and attenuated along the segment.
+template <class S, class Accel, class Reader, class Escape, class Light>
+DT_HOST_DEVICE DT_FORCEINLINE SegmentEnd<S> arrive(const SceneView& scene, const Accel& accel, Reader& reader,
+                                                   const Branch<S>& b, const TraceSettings& settings,
+                                                   TraceStats& local, const Escape& escape, Light&& light) {
   using T = ad::scalar_t<S>;
+  SegmentEnd<S> end;
   const int max_depth = settings.max_depth < max_trace_depth ? settings.max_depth : max_trace_depth;
   const Vec3f o = value_of(b.origin), d = value_of(b.direction);
   ++local.segments;
   const auto h = accel.intersect(o, d, 0.0f, 3.4e38f);
   if (!h.hit()) {
     light(b.weight * escape(reader, scene, b.origin, b.direction));
-    return;
+    return end;
   }
   ++local.hits;
   scene::SurfaceHit<S> sh = scene::reevaluate_hit(reader, scene.mesh, h.prim, b.origin, b.direction, settings.normal_mode);
@@ -273,30 +280,45 @@ DT_HOST_DEVICE DT_FORCEINLINE void interact(const SceneView& scene, const Accel&
     ++local.fallback_hits;
     t = S(h.t);
     sh.point = scene::surface_point(reader, scene.mesh, h.prim, S(h.u), S(h.v), settings.normal_mode);
-    if (!sh.point.valid) return;  // zero area: nothing to refract at
+    if (!sh.point.valid) return end;  // zero area: nothing to refract at
   }
-  const Vec3<S> p = b.origin + b.direction * t;
-  const Vec3<S>& ng = sh.point.ng;
-  const Vec3<S> wi = -b.direction;
-  const T cos_geo = value_of(glm::dot(wi, ng));
+  end.p = b.origin + b.direction * t;
+  end.ng = sh.point.ng;
+  // which side, on values (nothing recorded)
+  const Vec3<T> wi = -value_of(b.direction);
+  end.cos_geo = glm::dot(wi, value_of(end.ng));
   // shading normal, unless it disagrees with the geometry about the side
-  const bool shading_agrees = (value_of(glm::dot(wi, sh.point.n)) > T(0)) == (cos_geo > T(0));
-  const Vec3<S> n = settings.smooth_normals && shading_agrees ? sh.point.n : ng;
+  const bool shading_agrees = (glm::dot(wi, value_of(sh.point.n)) > T(0)) == (end.cos_geo > T(0));
+  end.n = settings.smooth_normals && shading_agrees ? sh.point.n : end.ng;
 
-  Vec3<S> weight = b.weight;
-  if (cos_geo < T(0) && scene.absorption.kind != scene::AbsorptionKind::none)  // the segment ran inside the object
-    weight = weight * (settings.attenuation_path_gradient
-                           ? scene::transmittance(reader, scene.absorption, b.origin, p, settings.integration)
-                           : scene::transmittance(reader, scene.absorption, detach(b.origin), detach(p),
-                                                  settings.integration));
+  end.weight = b.weight;
+  if (end.cos_geo < T(0) && scene.absorption.kind != scene::AbsorptionKind::none)  // the segment ran inside the object
+    end.weight = end.weight * (settings.attenuation_path_gradient
+                                   ? scene::transmittance(reader, scene.absorption, b.origin, end.p, settings.integration)
+                                   : scene::transmittance(reader, scene.absorption, detach(b.origin), detach(end.p),
+                                                          settings.integration));
 
   if (b.depth + 1 > max_depth) {
     ++local.depth_cut;
-    local.cut_weight += mean_component(weight);
-    return;
+    local.cut_weight += mean_component(end.weight);
+    return end;
   }
-  const optics::InterfaceEvent<S> ev = optics::interface_event(wi, n, eta);
-  const float incoming_side = cos_geo > T(0) ? 1.0f : -1.0f;
+  end.more = true;
+  return end;
+}
+
+// The second half of interact(): at the surface point `end` of the branch
+// that arrived along `direction` (its depth and path from b), the Fresnel
+// children are made, the reflection first, then the refraction, and
+// child(branch) is called for each that survives the drawn choice and the
+// roulette.
+template <class S, class Child>
+DT_HOST_DEVICE DT_FORCEINLINE void depart(const Branch<S>& b, const Vec3<S>& direction, const SegmentEnd<S>& end,
+                                          const S& eta, std::uint64_t ray_hash, const TraceSettings& settings,
+                                          TraceStats& local, Child&& child) {
+  using T = ad::scalar_t<S>;
+  const optics::InterfaceEvent<S> ev = optics::interface_event(-direction, end.n, eta);
+  const float incoming_side = end.cos_geo > T(0) ? 1.0f : -1.0f;
   if (!ev.tir) {
     const float c2 = float(value_of(ev.cos_theta_t) * value_of(ev.cos_theta_t));
     local.min_cos2_t = c2 < local.min_cos2_t ? c2 : local.min_cos2_t;
@@ -315,7 +337,7 @@ DT_HOST_DEVICE DT_FORCEINLINE void interact(const SceneView& scene, const Accel&
     take_t = !r_first;
     choice = (r_first ? r : tt) / (r + tt);
   }
-  const Vec3<S> chosen = choice < T(1) ? weight * S(T(1) / choice) : weight;
+  const Vec3<S> chosen = choice < T(1) ? end.weight * S(T(1) / choice) : end.weight;
   for (int c = 0; c < 2; ++c) {  // the reflection first
     if (!(c == 0 ? take_r : take_t)) continue;
     Vec3<S> w = chosen * (c == 0 ? ev.R : ev.T);
@@ -330,10 +352,29 @@ DT_HOST_DEVICE DT_FORCEINLINE void interact(const SceneView& scene, const Accel&
       w = w * S(T(1) / survive);
     }
     const float side = c == 0 ? incoming_side : -incoming_side;
-    Branch<S> next{offset_origin(p, ng, side), c == 0 ? ev.wr : ev.wt, w, b.depth + 1,
+    Branch<S> next{offset_origin(end.p, end.ng, side), c == 0 ? ev.wr : ev.wt, w, b.depth + 1,
                    (b.path << 1) | std::uint32_t(c)};
     child(next);
   }
+}
+
+// One branch's segment: it is sent to the BVH and either leaves the object,
+// and light(weight × what it sees) is called, or it meets the surface, where
+// its Fresnel children (the reflection first, then the refraction) are made
+// and child(branch) is called for each that survives the depth cut, the
+// drawn choice and the roulette; a branch that ends (cut, pruned, a
+// degenerate triangle) calls neither (arrive(), then depart()). The loop of
+// follow(), the queued branches of the device image (cuda/wavefront.hpp) and
+// trace_recomputed (render/recomputed_trace.hpp) all take their branches
+// through these. ray_hash: the
+// camera ray's (camera_ray_hash); eta: the IoR.
+template <class S, class Accel, class Reader, class Escape, class Light, class Child>
+DT_HOST_DEVICE DT_FORCEINLINE void interact(const SceneView& scene, const Accel& accel, Reader& reader,
+                                            const Branch<S>& b, const S& eta, std::uint64_t ray_hash,
+                                            const TraceSettings& settings, TraceStats& local, const Escape& escape,
+                                            Light&& light, Child&& child) {
+  const SegmentEnd<S> end = arrive<S>(scene, accel, reader, b, settings, local, escape, light);
+  if (end.more) depart<S>(b, b.direction, end, eta, ray_hash, settings, local, child);
 }
 
 // The radiance the branch `root` brings to the camera: the branch and every
