@@ -49,19 +49,16 @@ TEST_CASE("recomputed reverse mode: the same gradient on a tape of half a segmen
     if (c.absorption != 2) CHECK(peak <= one_peak);
   }
   SUBCASE("spot at depth 16: a segment's tape, not a path's") {
-    const HostScene spot = spot_scene();
-    const auto through = rays_through_spot();
-    TraceSettings deep;
-    deep.max_depth = 16;
-    const SceneGradient full = loss_gradient(spot, through, w, deep);
+    const SpotDeepTree spot(w);
     std::vector<Vec3d> radiance;
     std::int32_t streamed_peak = 0, peak = 0;
     int mismatched = 0;
-    streamed_gradient(spot, through, w, deep, &radiance, &streamed_peak);
-    const SceneGradient again = streamed_gradient(spot, through, w, deep, &radiance, &peak, true, &mismatched);
+    streamed_gradient(spot.scene, spot.rays, w, spot.settings, &radiance, &streamed_peak);
+    const SceneGradient again =
+        streamed_gradient(spot.scene, spot.rays, w, spot.settings, &radiance, &peak, true, &mismatched);
     CHECK(mismatched == 0);
-    CHECK(same_gradient(full.positions, again.positions, "positions") > 0.0f);
-    CHECK(same_gradient(full.ior, again.ior, "ior") > 0.0f);
+    CHECK(same_gradient(spot.full.positions, again.positions, "positions") > 0.0f);
+    CHECK(same_gradient(spot.full.ior, again.ior, "ior") > 0.0f);
     MESSAGE("spot at depth 16: largest tape streamed ", streamed_peak, " nodes, recomputed ", peak);
     CHECK(4 * peak < streamed_peak);
   }

@@ -426,16 +426,12 @@ TEST_CASE("streamed reverse mode: the same gradient on a tape bounded by the dep
     CHECK(peak <= full_peak);  // a sphere's tree is nearly a chain: little to gain
   }
   SUBCASE("spot's bushy tree at depth 16: the largest tape shrinks from the tree to a path") {
-    const HostScene spot = spot_scene();
-    const auto through = rays_through_spot();
-    TraceSettings deep;
-    deep.max_depth = 16;
-    const SceneGradient full = loss_gradient(spot, through, w, deep);
+    const SpotDeepTree spot(w);
     std::vector<Vec3d> radiance;
     std::int32_t peak = 0;
-    const SceneGradient streamed = streamed_gradient(spot, through, w, deep, &radiance, &peak);
-    CHECK(same_gradient(full.positions, streamed.positions, "positions") > 0.0f);
-    const std::int32_t full_peak = whole_tape(spot, through, deep).peak;
+    const SceneGradient streamed = streamed_gradient(spot.scene, spot.rays, w, spot.settings, &radiance, &peak);
+    CHECK(same_gradient(spot.full.positions, streamed.positions, "positions") > 0.0f);
+    const std::int32_t full_peak = whole_tape(spot.scene, spot.rays, spot.settings).peak;
     MESSAGE("spot at depth 16: largest tape ", full_peak, " nodes, streamed ", peak);
     CHECK(2 * peak < full_peak);
   }

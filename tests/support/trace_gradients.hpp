@@ -215,13 +215,29 @@ inline float same_gradient(const std::vector<float>& a, const std::vector<float>
   return scale;
 }
 
-// spot (data/meshes, normalized) at IoR 1.472 under the smooth sky, and 16
-// rays through it: a bushy Fresnel tree at depth 16.
-inline HostScene spot_scene() {
-  HostScene spot = make_scene(load_normalized_mesh(std::string(DIFFTRANS_DATA_DIR) + "/meshes/spot.obj"), 1.472f);
-  smooth_environment(spot);
-  return spot;
-}
-inline std::vector<TestRay> rays_through_spot() { return rays_towards_centre(Vec3f(0.4f, 0.5f, 3.0f), 0.3f, 16); }
+// spot (data/meshes, normalized) at IoR 1.472 under the smooth sky, 16 rays
+// through it traced to depth 16 (a bushy Fresnel tree), and the whole
+// tape's gradient of the loss with weights w on them.
+struct SpotDeepTree {
+  HostScene scene;
+  std::vector<TestRay> rays;
+  TraceSettings settings;
+  SceneGradient full;
+  explicit SpotDeepTree(const Vec3d& w)
+      : scene(spot_under_sky()),
+        rays(rays_towards_centre(Vec3f(0.4f, 0.5f, 3.0f), 0.3f, 16)),
+        settings(depth_16()),
+        full(loss_gradient(scene, rays, w, settings)) {}
+  static HostScene spot_under_sky() {
+    HostScene spot = make_scene(load_normalized_mesh(std::string(DIFFTRANS_DATA_DIR) + "/meshes/spot.obj"), 1.472f);
+    smooth_environment(spot);
+    return spot;
+  }
+  static TraceSettings depth_16() {
+    TraceSettings ts;
+    ts.max_depth = 16;
+    return ts;
+  }
+};
 
 }  // namespace dt_test

@@ -104,7 +104,7 @@ DT_HOST_DEVICE Vec3<T> trace_recomputed(const SceneView& scene, const Accel& acc
       at.escaped = true;
     });
     if (!at.end.more) return;
-    detail::depart<T>(at.branch, at.branch.direction, at.end, eta, ray_hash, settings, local,
+    detail::depart<T>(at.branch, at.end, eta, ray_hash, settings, local,
                       [&](detail::Branch<T>& next) {
                         if (!detail::carries_derivatives(settings, next.depth, next.path)) {
                           // a constant: its whole subtree now
@@ -150,7 +150,7 @@ DT_HOST_DEVICE Vec3<T> trace_recomputed(const SceneView& scene, const Accel& acc
       const V eta_v = scene.ior.differentiable() ? tape->variable(eta) : V(eta);
       TraceStats again;
       int made = 0;
-      detail::depart<V>(bv, way_in, end, eta_v, ray_hash, settings, again, [&](detail::Branch<V>& next) {
+      detail::depart<V>(bv, end, eta_v, ray_hash, settings, again, [&](detail::Branch<V>& next) {
         if (!detail::carries_derivatives(settings, next.depth, next.path)) return;
         ++made;
         for (int k = 0; k < at.children; ++k)

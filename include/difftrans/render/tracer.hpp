@@ -307,17 +307,16 @@ DT_HOST_DEVICE DT_FORCEINLINE SegmentEnd<S> arrive(const SceneView& scene, const
   return end;
 }
 
-// The second half of interact(): at the surface point `end` of the branch
-// that arrived along `direction` (its depth and path from b), the Fresnel
-// children are made, the reflection first, then the refraction, and
-// child(branch) is called for each that survives the drawn choice and the
-// roulette.
+// The second half of interact(): at the surface point `end` of branch b
+// (its direction, depth and path are read), the Fresnel children are made,
+// the reflection first, then the refraction, and child(branch) is called
+// for each that survives the drawn choice and the roulette.
 template <class S, class Child>
-DT_HOST_DEVICE DT_FORCEINLINE void depart(const Branch<S>& b, const Vec3<S>& direction, const SegmentEnd<S>& end,
-                                          const S& eta, std::uint64_t ray_hash, const TraceSettings& settings,
-                                          TraceStats& local, Child&& child) {
+DT_HOST_DEVICE DT_FORCEINLINE void depart(const Branch<S>& b, const SegmentEnd<S>& end, const S& eta,
+                                          std::uint64_t ray_hash, const TraceSettings& settings, TraceStats& local,
+                                          Child&& child) {
   using T = ad::scalar_t<S>;
-  const optics::InterfaceEvent<S> ev = optics::interface_event(-direction, end.n, eta);
+  const optics::InterfaceEvent<S> ev = optics::interface_event(-b.direction, end.n, eta);
   const float incoming_side = end.cos_geo > T(0) ? 1.0f : -1.0f;
   if (!ev.tir) {
     const float c2 = float(value_of(ev.cos_theta_t) * value_of(ev.cos_theta_t));
@@ -366,15 +365,14 @@ DT_HOST_DEVICE DT_FORCEINLINE void depart(const Branch<S>& b, const Vec3<S>& dir
 // degenerate triangle) calls neither (arrive(), then depart()). The loop of
 // follow(), the queued branches of the device image (cuda/wavefront.hpp) and
 // trace_recomputed (render/recomputed_trace.hpp) all take their branches
-// through these. ray_hash: the
-// camera ray's (camera_ray_hash); eta: the IoR.
+// through these. ray_hash: the camera ray's (camera_ray_hash); eta: the IoR.
 template <class S, class Accel, class Reader, class Escape, class Light, class Child>
 DT_HOST_DEVICE DT_FORCEINLINE void interact(const SceneView& scene, const Accel& accel, Reader& reader,
                                             const Branch<S>& b, const S& eta, std::uint64_t ray_hash,
                                             const TraceSettings& settings, TraceStats& local, const Escape& escape,
                                             Light&& light, Child&& child) {
   const SegmentEnd<S> end = arrive<S>(scene, accel, reader, b, settings, local, escape, light);
-  if (end.more) depart<S>(b, b.direction, end, eta, ray_hash, settings, local, child);
+  if (end.more) depart<S>(b, end, eta, ray_hash, settings, local, child);
 }
 
 // The radiance the branch `root` brings to the camera: the branch and every
