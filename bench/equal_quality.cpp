@@ -16,12 +16,18 @@
 //   roulette+path  roulette, with the Fresnel tree for the first 2
 //               interactions and one branch sampled by Fresnel weight beyond
 //   adaptive+path  adaptive, the same
+//   footprints  roulette, each sample reading the environment averaged over
+//               its stratum's footprint (render/footprint.hpp); with
+//               --footprint-angles A1,A2,... one curve per largest angle
 //
 // usage: equal_quality [--mesh spot] [--ior 1.472] [--env venice_sunset_1k.hdr]
 //                      [--size 128] [--targets 23,28,33] [--out DIR]
 //        equal_quality --scene DIR [--view K] ...   a scene's test view K with
 //                      its gt/ mesh, material (IoR, absorption) and map
 //        --roulette T1,T2,...   more roulette curves at these thresholds
+//        --converged N          the converged render's N × N samples (27)
+//        --footprint-angles A1,A2,...   footprint curves with these largest
+//                               footprint edges (radians; default 0.3)
 //        --device cuda          the uniform curves traced on the GPU (the
 //                               time of a view: its launches and the image
 //                               read back); the adaptive ones need the host
@@ -48,6 +54,7 @@
 #include "difftrans/io/image.hpp"
 #include "difftrans/io/mesh_file.hpp"
 #include "difftrans/render/adaptive.hpp"
+#include "difftrans/render/footprint.hpp"
 #include "difftrans/render/passes.hpp"
 #include "difftrans/render/views.hpp"
 #include "difftrans/metrics/image.hpp"
@@ -107,7 +114,9 @@ std::vector<double> parse_list(const std::string& text) {
 
 int main(int argc, char** argv) {
   std::string mesh_name = "spot", env_name = "venice_sunset_1k.hdr", out_dir = ".", targets_text = "23,28,33",
-              scene_dir, roulette_text, device = "cpu";
+              scene_dir, roulette_text, device = "cpu",
+              footprint_text = "0.3";
+  int converged_per_axis = 27;
   float ior = 1.472f;
   int size = 128, view = 0;
   for (int i = 1; i + 1 < argc; i += 2) {
@@ -122,11 +131,13 @@ int main(int argc, char** argv) {
     else if (a == "--view") view = std::atoi(argv[i + 1]);
     else if (a == "--roulette") roulette_text = argv[i + 1];
     else if (a == "--device") device = argv[i + 1];
+    else if (a == "--footprint-angles") footprint_text = argv[i + 1];
+    else if (a == "--converged") converged_per_axis = std::atoi(argv[i + 1]);
     else {
       std::fprintf(stderr,
                    "equal_quality: unknown option %s\nusage: equal_quality [--mesh spot] [--ior 1.472] "
                    "[--env venice_sunset_1k.hdr] [--size 128] [--targets 23,28,33] [--scene DIR] [--view K] "
-                   "[--roulette T1,T2] [--device cpu|cuda] [--out DIR]\n",
+                   "[--roulette T1,T2] [--footprint-angles A1,A2] [--converged N] [--device cpu|cuda] [--out DIR]\n",
                    a.c_str());
       return 2;
     }
@@ -181,9 +192,10 @@ int main(int argc, char** argv) {
   std::vector<float> converged;
   {
     dr::PassOptions o = reference;
-    o.samples_per_axis = 27;
+    o.samples_per_axis = converged_per_axis;
     const double sec = dt_bench::best_seconds([&] { converged = dr::render_image<float>(s, cam, o); });
-    std::fprintf(stderr, "converged render (27 x 27, depth 16, no pruning): %.1f s\n", sec);
+    std::fprintf(stderr, "converged render (%d x %d, depth 16, no pruning): %.1f s\n", converged_per_axis,
+                 converged_per_axis, sec);
   }
   difftrans::io::Image converged_image(cam.width, cam.height);
   converged_image.rgb = converged;
@@ -196,7 +208,9 @@ int main(int argc, char** argv) {
     return gpu ? gpu->render(cam, o, nullptr) : dr::render_image<float>(s, cam, o);
   };
   std::vector<Curve> curves;
-  const auto uniform_curve = [&](const std::string& name, const std::string& what, const dr::PassOptions& base) {
+  // footprints: the host's footprint pass with these settings
+  const auto uniform_curve = [&](const std::string& name, const std::string& what, const dr::PassOptions& base,
+                                 const dr::FootprintSettings* footprints = nullptr) {
     Curve c{name, what, {}};
     for (int n : {1, 2, 4, 8, 16}) {
       dr::PassOptions o = base;
@@ -205,7 +219,9 @@ int main(int argc, char** argv) {
       Point pt;
       pt.budget = std::to_string(n) + "x" + std::to_string(n);
       if (gpu) img = render_view(o);  // the first launch of a setting warms up
-      pt.seconds = dt_bench::best_seconds([&] { img = render_view(o); });
+      pt.seconds = dt_bench::best_seconds([&] {
+        img = footprints ? dr::render_image_footprints(s, cam, o, *footprints) : render_view(o);
+      });
       pt.psnr = object_psnr(img, converged8, mask);
       pt.samples = double(n * n);
       std::fprintf(stderr, "  %-14s %-8s %9.4f s  %6.2f dB\n", name.c_str(), pt.budget.c_str(), pt.seconds, pt.psnr);
@@ -253,6 +269,14 @@ int main(int argc, char** argv) {
   path.trace.tree_depth = 2;
   uniform_curve("roulette+path", "as roulette, the Fresnel tree for 2 interactions, one sampled branch beyond", path);
   if (!gpu) {
+    for (const double angle : parse_list(footprint_text)) {
+      dr::FootprintSettings f;
+      f.max_angle = float(angle);
+      char name[40];
+      std::snprintf(name, sizeof name, "footprints %g", angle);
+      uniform_curve(name, std::string("as roulette, the environment averaged over each stratum's footprint (edges up to ") +
+                              (name + 11) + " rad)", roulette, &f);
+    }
     adaptive_curve("adaptive", "as roulette, adaptive: rounds of 2x2 samples, 2 to 64 of them", roulette);
     adaptive_curve("adaptive+path", "as adaptive, the Fresnel tree for 2 interactions, one sampled branch beyond",
                    path);
@@ -262,7 +286,9 @@ int main(int argc, char** argv) {
   nlohmann::json j;
   j["scene"] = {{"mesh", mesh_name},     {"ior", ior},         {"environment", env_name}, {"width", cam.width},
                 {"height", cam.height}, {"view", view}, {"threads", threads}, {"device", device}};
-  j["quality"] = "PSNR of the 8-bit tone-mapped image over object pixels against uniform 27 x 27, depth 16, no pruning";
+  j["quality"] = "PSNR of the 8-bit tone-mapped image over object pixels against uniform " +
+                 std::to_string(converged_per_axis) + " x " + std::to_string(converged_per_axis) +
+                 ", depth 16, no pruning";
   for (const Curve& c : curves) {
     nlohmann::json jc;
     jc["description"] = c.description;
