@@ -25,6 +25,7 @@
 #include "difftrans/io/mesh_file.hpp"
 #include "difftrans/io/radiance_field.hpp"
 #include "difftrans/metrics/image.hpp"
+#include "difftrans/render/footprint.hpp"
 #include "difftrans/render/views.hpp"
 #include "difftrans/scene/room.hpp"
 #include "gpu/gpu_views.hpp"
@@ -345,11 +346,14 @@ struct Rendered {
 // (write_masks) DIR/masks/NAME.png, filling each view's frame paths.
 // A room (synth --room), when given, is what rays leaving the object see.
 // `totals`, when given, receives the work done. `gpu`, when given, traces
-// the images (gpu_tracer_for; the masks stay on the host).
+// the images (gpu_tracer_for; the masks stay on the host). `footprints`,
+// when given (and no room, no GPU), renders with ray footprints
+// (render::render_image_footprints).
 inline std::vector<Rendered> render_views(const render::HostScene& s, std::vector<View> views,
                                           const render::PassOptions& options, const fs::path& dir, bool write_masks,
                                           const std::string& label, const scene::Room* room = nullptr,
-                                          RenderTotals* totals = nullptr, GpuViewTracer* gpu = nullptr) {
+                                          RenderTotals* totals = nullptr, GpuViewTracer* gpu = nullptr,
+                                          const render::FootprintSettings* footprints = nullptr) {
   fs::create_directories(dir / "images");
   fs::create_directories(dir / "previews");
   if (write_masks) fs::create_directories(dir / "masks");
@@ -369,6 +373,9 @@ inline std::vector<Rendered> render_views(const render::HostScene& s, std::vecto
       r.image.rgb = gpu->render(r.view.camera, options, &g);
       st.rays = g.rays;
       st.trace.segments = std::int32_t(g.segments);
+    } else if (footprints && !room) {
+      r.image = io::Image(r.view.camera.width, r.view.camera.height);
+      r.image.rgb = render::render_image_footprints(s, r.view.camera, options, *footprints, &st);
     } else {
       r.image = room ? render::render_view_with(s, r.view.camera, options, render::fixed_escape(*room), &st)
                      : render::render_view(s, r.view.camera, options, &st);
