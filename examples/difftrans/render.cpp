@@ -65,11 +65,16 @@ void run(const RenderOptions& o) {
   }
   render::FootprintSettings footprints;
   footprints.max_angle = o.footprint_angle;
-  if (o.footprints && o.device == "auto") progress("render: tracing on the host (--footprints is traced on the host only)");
-  const std::unique_ptr<GpuViewTracer> gpu = o.footprints ? nullptr : gpu_tracer_for(o.device, s, "render");
+  // footprints filter an equirectangular map only (render/footprint.hpp)
+  const bool use_footprints = o.footprints && !s.near_field && s.environment_width > 0;
+  if (o.footprints && !use_footprints)
+    warn("--footprints: the environment (" + env.description() +
+         ") is not an equirectangular map; every sample reads it at one point");
+  if (use_footprints && o.device == "auto") progress("render: tracing on the host (--footprints is traced on the host only)");
+  const std::unique_ptr<GpuViewTracer> gpu = use_footprints ? nullptr : gpu_tracer_for(o.device, s, "render");
   RenderTotals totals;
   const auto rendered = render_views(s, views, pass, out.path(), true, "render", nullptr, &totals, gpu.get(),
-                                     o.footprints ? &footprints : nullptr);
+                                     use_footprints ? &footprints : nullptr);
   io::write_transforms(out.path() / "transforms.json", split_of(rendered));
   io::Json result = io::Json::object();
   if (with_truth) {
@@ -80,7 +85,7 @@ void run(const RenderOptions& o) {
   result["views"] = rendered.size();
   result["trace"] = totals.json(rendered.size());
   result["device"] = gpu ? "cuda" : "cpu";
-  result["footprints"] = o.footprints ? io::Json{{"max_angle", o.footprint_angle}} : io::Json(nullptr);
+  result["footprints"] = use_footprints ? io::Json{{"max_angle", o.footprint_angle}} : io::Json(nullptr);
   result["out"] = out.final_path().string();
   io::write_json(out.path() / "render.json", result);
   out.commit();
