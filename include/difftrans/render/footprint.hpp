@@ -36,7 +36,6 @@
 
 #include "difftrans/ad/dual.hpp"
 #include "difftrans/ad/glm.hpp"
-#include "difftrans/core/parallel.hpp"
 #include "difftrans/render/host_scene.hpp"
 #include "difftrans/render/pass_options.hpp"
 #include "difftrans/render/passes.hpp"
@@ -162,13 +161,10 @@ DT_HOST_DEVICE Vec3<T> trace_footprint(const SceneView& scene, const Accel& acce
                                        const TraceSettings& settings, const Escape& escape,
                                        TraceStats* stats = nullptr) {
   using D = ad::Dual<T, 2>;
-  TraceStats local;
   const scene::Ray r = cam.ray_through(px, py);
-  const D eta = ad::load<D>(reader, scene.ior, 0);
-  const std::uint64_t ray_hash = detail::choice_hash(settings, r.origin, r.direction);
-  const detail::Branch<D> root{lift<D>(r.origin), ray_differential<T>(cam, px, py, cell), Vec3<D>(D(1), D(1), D(1)), 0, 1u};
-  const Vec3<D> radiance = detail::follow<D>(scene, accel, reader, root, eta, ray_hash, settings, local, escape);
-  if (stats) stats->add(local);
+  const Vec3<D> direction = ray_differential<T>(cam, px, py, cell);
+  const Vec3<D> radiance = detail::trace_camera_ray<D>(scene, accel, reader, r.origin, r.direction, settings, stats,
+                                                       escape, detail::SumBranches{}, &direction);
   return Vec3<T>(radiance.x.value, radiance.y.value, radiance.z.value);
 }
 
@@ -182,26 +178,18 @@ std::vector<T> render_image_footprints(const HostScene& s, const scene::Camera& 
   const std::vector<double> sums = scene::env_box_sums(s.environment.data(), s.environment_width, s.environment_height);
   const FootprintEscape escape{scene::EnvBoxTable{sums.data(), s.environment_width, s.environment_height}, settings};
   const int n = opt.samples_per_axis;
-  const float cell = 1.0f / float(n), weight = 1.0f / float(n * n);
+  const float cell = 1.0f / float(n);
   std::vector<T> image(std::size_t(cam.width) * cam.height * 3, T(0));
   const SceneView view = s.view(false);
-  const ad::ParamSet params = s.params();
-  ThreadPool& pool = ThreadPool::global();
-  detail::StatsPerWorker st(pool.size());
-  pool.parallel_for(std::int64_t(cam.width) * cam.height, 64, [&](std::int64_t b, std::int64_t e, int worker) {
-    ad::ParamReader<ad::Dual<T, 2>> reader(&params);
-    PassStats& ps = st.per[std::size_t(worker)];
-    for (std::int64_t pix = b; pix < e; ++pix) {
-      const float x = float(pix % cam.width), y = float(pix / cam.width);
-      for (int k = 0; k < n * n; ++k) {  // pixel_sample's order and positions
-        const float px = x + (float(k % n) + 0.5f) * cell, py = y + (float(k / n) + 0.5f) * cell;
-        const Vec3<T> L = trace_footprint<T>(view, s.accel(), reader, cam, px, py, cell, opt.trace, escape, &ps.trace);
-        for (int c = 0; c < 3; ++c) image[std::size_t(pix) * 3 + std::size_t(c)] += T(weight) * L[c];
-        ++ps.rays;
-      }
-    }
-  });
-  if (stats) *stats = st.total();
+  detail::sample_pass<ad::Dual<T, 2>>(
+      s.params(), cam, n, stats,
+      [&](ad::ParamReader<ad::Dual<T, 2>>& reader, std::int64_t pix, int k, TraceStats& ts) {
+        const Vec2f p = pixel_sample_point(cam, n, pix, k);
+        return trace_footprint<T>(view, s.accel(), reader, cam, p.x, p.y, cell, opt.trace, escape, &ts);
+      },
+      [&](std::size_t i, const Vec3<T>& L, float wt) {
+        for (int c = 0; c < 3; ++c) image[i + std::size_t(c)] += T(wt) * L[c];
+      });
   return image;
 }
 

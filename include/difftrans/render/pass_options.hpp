@@ -34,10 +34,15 @@ struct ImageDerivative {
 // Sample k of the n × n stratified samples (stratum centres) of pixel `pix`
 // (row-major: pix = y · width + x), j-major: k = j · n + i. Every pass, host
 // or device, samples a pixel this way; each sample weighs 1 / n².
-DT_HOST_DEVICE inline scene::Ray pixel_sample(const scene::Camera& cam, int n, std::int64_t pix, int k) {
+// pixel_sample_point: where that sample lies, in continuous pixel coordinates.
+DT_HOST_DEVICE inline Vec2f pixel_sample_point(const scene::Camera& cam, int n, std::int64_t pix, int k) {
   const float inv = 1.0f / float(n);
   const int x = int(pix % cam.width), y = int(pix / cam.width);
-  return cam.generate_ray(x, y, (float(k % n) + 0.5f) * inv, (float(k / n) + 0.5f) * inv);
+  return Vec2f(float(x) + (float(k % n) + 0.5f) * inv, float(y) + (float(k / n) + 0.5f) * inv);
+}
+DT_HOST_DEVICE inline scene::Ray pixel_sample(const scene::Camera& cam, int n, std::int64_t pix, int k) {
+  const Vec2f p = pixel_sample_point(cam, n, pix, k);
+  return cam.ray_through(p.x, p.y);
 }
 
 // Calls f(origin, direction, weight) for the n² samples of pixel `pix`, in

@@ -90,22 +90,41 @@ class WorkerTapes {
 
 namespace detail {
 
-// A forward pass (plain or Dual): every sample of every pixel traced with
-// scalar S; accumulate(pixel, radiance, weight) adds it to the caller's images.
-template <class S, class Escape, class Accumulate>
-void forward_pass(const HostScene& s, const SceneView& view, const ad::ParamSet& params, const scene::Camera& cam,
-                  const PassOptions& opt, PassStats* stats, const Escape& escape, Accumulate&& accumulate) {
+// A forward pass over every sample of every pixel (pixel_sample's order):
+// trace_sample(reader, pixel, k, trace_stats) returns sample k's radiance,
+// read through a ParamReader<S> of `params` (plain or Dual); accumulate(pixel
+// · 3, radiance, weight) adds it to the caller's images.
+template <class S, class TraceSample, class Accumulate>
+void sample_pass(const ad::ParamSet& params, const scene::Camera& cam, int n, PassStats* stats,
+                 TraceSample&& trace_sample, Accumulate&& accumulate) {
   ThreadPool& pool = ThreadPool::global();
   StatsPerWorker st(pool.size());
+  const float weight = 1.0f / float(n * n);
   pool.parallel_for(std::int64_t(cam.width) * cam.height, 64, [&](std::int64_t b, std::int64_t e, int w) {
     ad::ParamReader<S> reader(&params);
     PassStats& ps = st.per[std::size_t(w)];
-    for_each_sample(cam, opt.samples_per_axis, b, e, [&](std::int64_t pix, Vec3f o, Vec3f d, float wt) {
-      accumulate(std::size_t(pix) * 3, trace<S>(view, s.accel(), reader, o, d, opt.trace, &ps.trace, escape), wt);
-      ++ps.rays;
-    });
+    for (std::int64_t pix = b; pix < e; ++pix)
+      for (int k = 0; k < n * n; ++k) {
+        accumulate(std::size_t(pix) * 3, trace_sample(reader, pix, k, ps.trace), weight);
+        ++ps.rays;
+      }
   });
   if (stats) *stats = st.total();
+}
+
+// The forward pass of the tracer (plain or Dual): each sample's camera ray
+// traced with scalar S.
+template <class S, class Escape, class Accumulate>
+void forward_pass(const HostScene& s, const SceneView& view, const ad::ParamSet& params, const scene::Camera& cam,
+                  const PassOptions& opt, PassStats* stats, const Escape& escape, Accumulate&& accumulate) {
+  const int n = opt.samples_per_axis;
+  sample_pass<S>(
+      params, cam, n, stats,
+      [&](ad::ParamReader<S>& reader, std::int64_t pix, int k, TraceStats& ts) {
+        const scene::Ray r = pixel_sample(cam, n, pix, k);
+        return trace<S>(view, s.accel(), reader, r.origin, r.direction, opt.trace, &ts, escape);
+      },
+      accumulate);
 }
 
 }  // namespace detail

@@ -424,14 +424,18 @@ DT_HOST_DEVICE inline std::uint64_t choice_hash(const TraceSettings& settings, c
 
 // The camera ray (origin, direction) as the root branch: the IoR read once,
 // the hash of the drawn and roulette choices, the loop, the counts.
+// root_direction, when given, is the direction in S (value `direction`) with
+// derivatives of its own (the ray differentials of render/footprint.hpp).
 template <class S, class Accel, class Reader, class Escape, class Collect>
 DT_HOST_DEVICE Vec3<S> trace_camera_ray(const SceneView& scene, const Accel& accel, Reader& reader, const Vec3f& origin,
                                         const Vec3f& direction, const TraceSettings& settings, TraceStats* stats,
-                                        const Escape& escape, const Collect& collect) {
+                                        const Escape& escape, const Collect& collect,
+                                        const Vec3<S>* root_direction = nullptr) {
   TraceStats local;
   const S eta = ad::load<S>(reader, scene.ior, 0);
   const std::uint64_t ray_hash = choice_hash(settings, origin, direction);
-  Branch<S> root{lift<S>(origin), lift<S>(direction), Vec3<S>(S(1), S(1), S(1)), 0, 1u};
+  Branch<S> root{lift<S>(origin), root_direction ? *root_direction : lift<S>(direction), Vec3<S>(S(1), S(1), S(1)), 0,
+                 1u};
   collect.made(root);
   const Vec3<S> radiance = follow<S>(scene, accel, reader, root, eta, ray_hash, settings, local, escape, collect);
   if (stats) stats->add(local);
