@@ -319,7 +319,7 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
   io::Json settings = j["settings"];
   // (nor what happens after the last iteration: the IoR's settling)
   for (const char* key : {"iterations", "test_spp_axis", "mesh", "ior_settle_batches", "ior_settle_step",
-                          "ior_settle_rounds"})
+                          "ior_settle_rounds", "ior_settle_clip"})
     settings.erase(key);
   const std::string run_name = settings.dump() + " seed " + std::to_string(cfg.seed) + " " + inputs;
   if (!run.restart && fs::exists(ckpt_path)) {

@@ -278,6 +278,14 @@ struct Stage2Config {
   int ior_settle_batches = 64;
   float ior_settle_step = 0.01f;
   int ior_settle_rounds = 3;
+  // The settle's own per-ray clip of the IoR derivative (as clip_ior; 0:
+  // off). The fit's clip of 10 steadies its steps, but a line's zero is a
+  // derivative's zero only while the clip leaves the derivative's sign
+  // alone: on spot at IoR 1.8 (true mesh, material and map) clip 10 clips
+  // 41 % of the rays and puts the zero 0.0065 above the truth (3.5 standard
+  // errors), clip 100 clips 25 % and shows no bias at twice the standard
+  // error (docs/stage2-diagnostics.md, "Is the settle biased?").
+  float ior_settle_clip = 10.0f;
   // Large steps' λ for the vertices. The step direction is (I + λL)^-2 of
   // the gradient, and the stage-1 mesh's error is fine detail: its cosine
   // with that smoothed error is 0.36 at λ 19, 0.74 at λ 1 (spot-clear), and
@@ -654,6 +662,9 @@ struct Stage2Config {
       c.ior_settle_batches);
     v(Field{"ior_settle_step", "", "spacing of the five IoRs of the final regression"}, c.ior_settle_step);
     v(Field{"ior_settle_rounds", "", "recentrings of the final regression's five IoRs"}, c.ior_settle_rounds);
+    v(Field{"ior_settle_clip", "--materials-ior-settle-clip",
+            "per-ray clip of the IoR derivative in the final regression (0: off)", 0, 1e30},
+      c.ior_settle_clip);
     v(Field{"smooth_passes", "--materials-smooth-passes",
             "Taubin smoothing passes on the mesh when the vertices stop (with --materials-geometry; 0: none)", 0, 1000},
       c.smooth_passes);
@@ -1769,7 +1780,7 @@ class Stage2 {
     std::vector<double> g;
     for (int b = 0; b < batches; ++b) {
       std::mt19937_64 rng(config_.seed * 0x94D049BB133111EBull + 0x5E771Eu + std::uint64_t(b));
-      g.push_back(double(batch_gradient(rng).ior[0]));
+      g.push_back(double(batch_gradient(rng, 0, nullptr, config_.ior_settle_clip).ior[0]));
     }
     double mean = 0.0, var = 0.0;
     for (double x : g) mean += x / double(g.size());
@@ -1835,14 +1846,16 @@ class Stage2 {
 
   // The gradient of the pixel loss over one batch drawn from `rng`
   // (draw_batch; ray_count rays, 0: rays_per_iteration), each ray's IoR
-  // derivative clipped (clip_ior), no vertex clip: what the IoR's settling,
-  // the absorption candidates' fits and materials_pass step on. `totals`,
-  // when given, receives the batch's colour loss and its rays.
+  // derivative clipped (clip_ior, or `clip` when not negative), no vertex
+  // clip: what the IoR's settling, the absorption candidates' fits and
+  // materials_pass step on. `totals`, when given, receives the batch's
+  // colour loss and its rays.
   struct BatchTotals {
     double colour = 0.0;
     std::int64_t rays = 0;
   };
-  SceneGradient batch_gradient(std::mt19937_64& rng, int ray_count = 0, BatchTotals* totals = nullptr) {
+  SceneGradient batch_gradient(std::mt19937_64& rng, int ray_count = 0, BatchTotals* totals = nullptr,
+                               float clip = -1.0f) {
     std::vector<BatchRay> rays;
     std::vector<Vec3f> target;
     draw_batch(rng, rays, target, false, ray_count);
@@ -1860,7 +1873,7 @@ class Stage2 {
           pixel_colour[std::size_t(i)] = l.colour;
           return l.value;
         },
-        grad, po, 0.0f, config_.clip_ior * inv_n);
+        grad, po, 0.0f, (clip < 0.0f ? config_.clip_ior : clip) * inv_n);
     if (totals) {
       totals->colour = 0.0;
       for (double c : pixel_colour) totals->colour += c * double(inv_n);
