@@ -5,6 +5,8 @@
 // to the raw grid parameters and the segment ends; forward against reverse.
 #include "scene/scene_check.hpp"
 
+#include <utility>
+
 using namespace dt_test;
 using scene::AbsorptionField;
 using scene::AbsorptionIntegration;
@@ -206,6 +208,43 @@ TEST_CASE("K-sample quadrature converges to the exact integral") {
       previous = err;
     }
     CHECK(previous < (offset == 0.5f ? 1e-4 : 1e-2));
+  }
+}
+
+TEST_CASE_TEMPLATE("optical_depth_share: shares over a split of the samples add up to the sampled optical depth, "
+                   "derivatives too",
+                   S, DT_ALL_SCALARS) {
+  const Grid g = random_grid();
+  OverrideReader<S> r{&g.values};
+  const AbsorptionIntegration q{4, 0.37f};
+  // segments inside, crossing and outside the box; one of zero length
+  auto segments = random_segments(12, 5, 1.0);
+  segments.push_back({Vec3d(0.1, 0.2, -0.1), Vec3d(0.1, 0.2, -0.1)});
+  segments.push_back({Vec3d(1.0, 1.0, 1.0), Vec3d(2.0, 1.5, 1.0)});
+  for (const auto& [a, b] : segments) {
+    Vec3<S> as(S(a.x), S(a.y), S(a.z)), bs(S(b.x), S(b.y), S(b.z));
+    constexpr int lanes = ad::dual_lanes<S>::value;
+    if constexpr (lanes > 0)  // lane l moves coordinate l of the ends (a's, then b's)
+      for (int l = 0; l < lanes && l < 6; ++l) (l < 3 ? as : bs)[l % 3].grad[l] = 1;
+    const Vec3<S> whole = scene::optical_depth(r, g.field, as, bs, q);
+    // one sample at a time, and split as [0, 1), [1, 3), [3, 4)
+    Vec3<S> by_sample(S(0), S(0), S(0)), by_split = by_sample;
+    for (int k = 0; k < q.samples; ++k) by_sample += scene::optical_depth_share(r, g.field, as, bs, q, k, k + 1);
+    const int split[] = {0, 1, 3, 4};
+    for (int i = 0; i < 3; ++i) by_split += scene::optical_depth_share(r, g.field, as, bs, q, split[i], split[i + 1]);
+    for (const Vec3<S>& sum : {by_sample, by_split})
+      for (int ch = 0; ch < 3; ++ch) {
+        CHECK(close(double(ad::value_of(sum[ch])), double(ad::value_of(whole[ch])), tol<S>()));
+        if constexpr (lanes > 0)
+          for (int l = 0; l < lanes; ++l) CHECK(close(double(sum[ch].grad[l]), double(whole[ch].grad[l]), tol<S>()));
+      }
+    // empty or out of range, exact integration, or no grid: nothing
+    for (const auto& [first, end] : {std::pair<int, int>{-1, 1}, {2, 2}, {3, q.samples + 1}})
+      CHECK(double(ad::value_of(scene::optical_depth_share(r, g.field, as, bs, q, first, end).x)) == 0.0);
+    CHECK(double(ad::value_of(scene::optical_depth_share(r, g.field, as, bs, AbsorptionIntegration{}, 0, 1).y)) ==
+          0.0);
+    CHECK(double(ad::value_of(
+              scene::optical_depth_share(r, scene::homogeneous_absorption(nullptr, 0), as, bs, q, 0, 4).z)) == 0.0);
   }
 }
 

@@ -183,9 +183,12 @@ inline std::vector<GradientCase> gradient_cases() {
   main_path.gradient_refractions = 2;
   TraceSettings cut = tree;  // constants below the third interaction
   cut.gradient_depth = 3;
+  TraceSettings sampled = drawn;  // stage 2's training: the grid integrated by 4 samples per segment
+  sampled.integration.samples = 4;
   return {{"full tree, clear", tree, 0},          {"full tree, homogeneous", tree, 1},
           {"full tree, grid", tree, 2},           {"drawn path and roulette", drawn, 2},
-          {"main refraction path", main_path, 1}, {"gradient depth 3", cut, 2}};
+          {"main refraction path", main_path, 1}, {"gradient depth 3", cut, 2},
+          {"drawn path, grid by 4 samples", sampled, 2}};
 }
 inline void set_case_absorption(HostScene& s, int absorption) {
   if (absorption == 0) {

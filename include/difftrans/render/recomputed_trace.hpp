@@ -13,6 +13,7 @@
 #include "difftrans/ad/param_source.hpp"
 #include "difftrans/ad/params.hpp"
 #include "difftrans/render/tracer.hpp"
+#include "difftrans/scene/absorption.hpp"
 
 namespace difftrans::render {
 
@@ -169,6 +170,57 @@ DT_HOST_DEVICE Vec3<T> trace_recomputed(const SceneView& scene, const Accel& acc
       at_direction = adjoints(way_in);
       tape->truncate(base);
     }
+    // A segment inside a grid integrated by samples: its absorption apart,
+    // before the rest of the arrival, one piece on the tape at a time — the
+    // interval and the samples' weight (scene::SampledSegment), under it the
+    // corners of the cell being sampled, under those one sample's share of
+    // the optical depth, each swept into the pieces below it and cut. The
+    // weight is the branch's × the transmittance, so the transmittance's
+    // adjoint is the weight's × the branch's weight (values), and the
+    // depth's −transmittance × that; what the pieces send to the segment's
+    // ends joins the arrival's adjoints below.
+    const bool shares = at.end.more && at.end.cos_geo < T(0) &&
+                        scene.absorption.kind == scene::AbsorptionKind::grid && settings.integration.samples > 0;
+    SceneView arrival_scene = scene;
+    Vec3<T> weight_adjoint = at_weight, share_origin(T(0), T(0), T(0)), share_end = share_origin;
+    if (shares) {
+      arrival_scene.absorption.kind = scene::AbsorptionKind::none;  // the weight passes unchanged
+      const Vec3<T> tau = scene::optical_depth<T>(values, scene.absorption, b.origin, at.end.p, settings.integration);
+      const Vec3<T> transmitted = scene::transmittance_from_depth(tau);
+      Vec3<T> tau_adjoint;
+      for (int c = 0; c < 3; ++c) {
+        weight_adjoint[c] = at_weight[c] * transmitted[c];
+        tau_adjoint[c] = tau[c] < scene::max_optical_depth<T> ? -transmitted[c] * at_weight[c] * b.weight[c] : T(0);
+      }
+      const bool ends_move = settings.attenuation_path_gradient;
+      const std::int32_t segment_base = tape->mark();
+      const Vec3<V> from = ends_move ? leaves(b.origin) : lift<V>(b.origin);
+      const Vec3<V> to = ends_move ? leaves(at.end.p) : lift<V>(at.end.p);
+      const scene::SampledSegment<V> piece = scene::sampled_segment(scene.absorption, from, to, settings.integration);
+      if (piece.hit) {
+        scene::detail::CellSigma<V> corners;
+        bool have = false;
+        std::int32_t cell_base = tape->mark();
+        for (int k = 0; k < piece.samples; ++k) {
+          const Vec3i cell = scene::sample_cell(piece, k);
+          if (!have || cell != corners.cell) {
+            if (have) sweep(cell_base), tape->truncate(cell_base);
+            cell_base = tape->mark();
+            scene::detail::read_cell(reader, scene.absorption, cell, corners);
+            have = true;
+          }
+          const std::int32_t sample_base = tape->mark();
+          seed(scene::sample_share(reader, scene.absorption, piece, k, corners, have), tau_adjoint);
+          sweep(sample_base);
+          tape->truncate(sample_base);
+        }
+        if (have) sweep(cell_base), tape->truncate(cell_base);
+      }
+      sweep(segment_base);
+      share_origin = adjoints(from);
+      share_end = adjoints(to);
+      tape->truncate(segment_base);
+    }
     // the arrival: from the branch's origin, direction and weight
     const std::int32_t base = tape->mark();
     detail::Branch<V> in{lift<V>(b.origin), lift<V>(b.direction), lift<V>(b.weight), b.depth, b.path};
@@ -179,17 +231,17 @@ DT_HOST_DEVICE Vec3<T> trace_recomputed(const SceneView& scene, const Accel& acc
     }
     TraceStats again;
     const detail::SegmentEnd<V> end =
-        detail::arrive<V>(scene, detail::RecordedHit{at.hit}, reader, in, settings, again, escape,
+        detail::arrive<V>(arrival_scene, detail::RecordedHit{at.hit}, reader, in, settings, again, escape,
                           [&](const Vec3<V>& light) { seed(light, adjoint); });
     if (end.more != at.end.more && mismatched) ++*mismatched;
     if (end.more && at.end.more) {
-      seed(end.p, at_p);
+      seed(end.p, at_p + share_end);
       seed(end.n, at_n);
-      seed(end.weight, at_weight);
+      seed(end.weight, weight_adjoint);
     }
     sweep(base);
     if (out) {
-      out[0] = adjoints(in.origin);
+      out[0] = adjoints(in.origin) + share_origin;
       out[1] = adjoints(in.direction) + at_direction;
       out[2] = adjoints(in.weight);
     }

@@ -292,6 +292,43 @@ DT_HOST_DEVICE Vec3<S> integrate_grid_exact(Reader& reader, const AbsorptionFiel
   return sum;
 }
 
+// The stratified samples' interval: where the segment [a, b] enters and
+// leaves the grid's box, in its parameter t, in S.
+template <class S>
+struct SampledSpan {
+  Vec3<S> ab;
+  S t_first, span;
+};
+template <class S>
+DT_HOST_DEVICE SampledSpan<S> sampled_span(const AbsorptionField& f, const Vec3<S>& a, const Vec3<S>& b,
+                                           const Clip<ad::scalar_t<S>>& clip) {
+  SampledSpan<S> r;
+  r.ab = b - a;
+  r.t_first = clip_end(a, b, clip.axis_in, clip.t_in, f.lo, f.hi);
+  r.span = clip_end(a, b, clip.axis_out, clip.t_out, f.lo, f.hi) - r.t_first;
+  return r;
+}
+
+// Sigma (RGB) at sample k of K over the interval: the cell's corners read
+// into cs unless `have` says cs already holds that cell.
+template <class S, class Reader>
+DT_HOST_DEVICE Vec3<S> sigma_at_sample(Reader& reader, const AbsorptionField& f, const GridFrame<ad::scalar_t<S>>& g,
+                                       const Vec3<S>& a, const SampledSpan<S>& in, int k, int samples, float offset,
+                                       CellSigma<S>& cs, bool& have) {
+  using T = ad::scalar_t<S>;
+  const S t = in.t_first + in.span * ((T(k) + T(offset)) / T(samples));
+  const Vec3<S> p = grid_point(g, a, in.ab, t);
+  const Vec3i cell = cell_of(g, ad::value_of(p));
+  if (!have || cell != cs.cell) {
+    read_cell(reader, f, cell, cs);
+    have = true;
+  }
+  const Vec3<S> l(p.x - T(cell.x), p.y - T(cell.y), p.z - T(cell.z));
+  S w[8];
+  trilinear_weights(l, w);
+  return blend(cs, w);
+}
+
 // K stratified samples over the clipped parameter interval, per unit of t.
 // Consecutive samples in the same cell share one read of its corners.
 template <class S, class Reader>
@@ -300,27 +337,12 @@ DT_HOST_DEVICE Vec3<S> integrate_grid_samples(Reader& reader, const AbsorptionFi
                                               float offset) {
   using T = ad::scalar_t<S>;
   const GridFrame<T> g = grid_frame<T>(f);
-  const Vec3<S> ab = b - a;
-  const S t_first = clip_end(a, b, clip.axis_in, clip.t_in, f.lo, f.hi);
-  const S t_last = clip_end(a, b, clip.axis_out, clip.t_out, f.lo, f.hi);
-  const S span = t_last - t_first;
+  const SampledSpan<S> in = sampled_span(f, a, b, clip);
   Vec3<S> sum(S(0), S(0), S(0));
   CellSigma<S> cs;
   bool have = false;
-  for (int k = 0; k < samples; ++k) {
-    const S t = t_first + span * ((T(k) + T(offset)) / T(samples));
-    const Vec3<S> p = grid_point(g, a, ab, t);
-    const Vec3i cell = cell_of(g, ad::value_of(p));
-    if (!have || cell != cs.cell) {
-      read_cell(reader, f, cell, cs);
-      have = true;
-    }
-    const Vec3<S> l(p.x - T(cell.x), p.y - T(cell.y), p.z - T(cell.z));
-    S w[8];
-    trilinear_weights(l, w);
-    sum += blend(cs, w);
-  }
-  const S scale = span / T(samples > 0 ? samples : 1);
+  for (int k = 0; k < samples; ++k) sum += sigma_at_sample(reader, f, g, a, in, k, samples, offset, cs, have);
+  const S scale = in.span / T(samples > 0 ? samples : 1);
   return sum * scale;
 }
 
@@ -372,6 +394,74 @@ DT_HOST_DEVICE Vec3<S> optical_depth(Reader& reader, const AbsorptionField& f, c
                                                              integration.offset)
                             : detail::integrate_grid_exact(reader, f, a, b, clip);
   return per_t * length;
+}
+
+// A grid segment [a, b] integrated by samples (integration.samples = K >
+// 0), in pieces, as a reverse pass that records, sweeps and cuts them one at
+// a time takes them: the interval inside the box and each sample's weight
+// (that interval's length / K, in S), computed once; the cell a sample lies
+// in (values); sigma at a sample from its cell's corners (read_cell, or
+// read by the sample itself when `have` is false). sample_share(k) is
+// sample k's share of optical_depth — sigma × weight — and the K shares add
+// up to it (up to the order of the float sums). hit is false (nothing to
+// integrate) for a segment of zero length or missing the box, and for any
+// other field or integration.
+template <class S>
+struct SampledSegment {
+  bool hit = false;
+  int samples = 0;
+  float offset = 0.5f;
+  detail::GridFrame<ad::scalar_t<S>> grid;
+  Vec3<S> a;
+  detail::SampledSpan<S> span;
+  S weight;
+};
+template <class S>
+DT_HOST_DEVICE SampledSegment<S> sampled_segment(const AbsorptionField& f, const Vec3<S>& a, const Vec3<S>& b,
+                                                 const AbsorptionIntegration& integration) {
+  using T = ad::scalar_t<S>;
+  SampledSegment<S> r;
+  if (f.kind != AbsorptionKind::grid || integration.samples <= 0) return r;
+  const Vec3<S> ab = b - a;
+  const S length = safe_sqrt(glm::dot(ab, ab));
+  if (!(ad::value_of(length) > T(0))) return r;
+  const detail::Clip<T> clip = detail::clip_segment(ad::value_of(a), ad::value_of(b), f.lo, f.hi);
+  if (!clip.hit) return r;
+  r.hit = true;
+  r.samples = integration.samples;
+  r.offset = integration.offset;
+  r.grid = detail::grid_frame<T>(f);
+  r.a = a;
+  r.span = detail::sampled_span(f, a, b, clip);
+  r.weight = r.span.span / T(integration.samples) * length;
+  return r;
+}
+// The cell of sample k (values).
+template <class S>
+DT_HOST_DEVICE Vec3i sample_cell(const SampledSegment<S>& s, int k) {
+  using T = ad::scalar_t<S>;
+  const T t = ad::value_of(s.span.t_first) + ad::value_of(s.span.span) * ((T(k) + T(s.offset)) / T(s.samples));
+  return detail::cell_of(s.grid, detail::grid_point(s.grid, ad::value_of(s.a), ad::value_of(s.span.ab), t));
+}
+template <class S, class Reader>
+DT_HOST_DEVICE Vec3<S> sample_share(Reader& reader, const AbsorptionField& f, const SampledSegment<S>& s, int k,
+                                    detail::CellSigma<S>& cs, bool& have) {
+  return detail::sigma_at_sample(reader, f, s.grid, s.a, s.span, k, s.samples, s.offset, cs, have) * s.weight;
+}
+
+// The shares of the samples [first, end) summed: zero for an empty or
+// out-of-range interval.
+template <class S, class Reader>
+DT_HOST_DEVICE Vec3<S> optical_depth_share(Reader& reader, const AbsorptionField& f, const Vec3<S>& a,
+                                           const Vec3<S>& b, const AbsorptionIntegration& integration, int first,
+                                           int end) {
+  Vec3<S> sum(S(0), S(0), S(0));
+  const SampledSegment<S> s = sampled_segment(f, a, b, integration);
+  if (!s.hit || first < 0 || end > s.samples) return sum;
+  detail::CellSigma<S> cs;
+  bool have = false;
+  for (int k = first; k < end; ++k) sum += sample_share(reader, f, s, k, cs, have);
+  return sum;
 }
 
 // exp(-tau) per channel, with tau clamped at max_optical_depth (value 0 and
