@@ -172,8 +172,8 @@ DT_HOST_DEVICE Vec3<T> trace_recomputed(const SceneView& scene, const Accel& acc
     }
     // A segment inside a grid integrated by samples: its absorption apart,
     // before the rest of the arrival, one piece on the tape at a time — the
-    // interval and the samples' weight (scene::SampledSegment), under it the
-    // corners of the cell being sampled, under those one sample's share of
+    // interval and the samples' weight (scene::SampledSegment), above it the
+    // corners of the cell being sampled, above those one sample's share of
     // the optical depth, each swept into the pieces below it and cut. The
     // weight is the branch's × the transmittance, so the transmittance's
     // adjoint is the weight's × the branch's weight (values), and the
@@ -204,7 +204,10 @@ DT_HOST_DEVICE Vec3<T> trace_recomputed(const SceneView& scene, const Accel& acc
         for (int k = 0; k < piece.samples; ++k) {
           const Vec3i cell = scene::sample_cell(piece, k);
           if (!have || cell != corners.cell) {
-            if (have) sweep(cell_base), tape->truncate(cell_base);
+            if (have) {  // the last cell's samples are done
+              sweep(cell_base);
+              tape->truncate(cell_base);
+            }
             cell_base = tape->mark();
             scene::detail::read_cell(reader, scene.absorption, cell, corners);
             have = true;
@@ -214,7 +217,10 @@ DT_HOST_DEVICE Vec3<T> trace_recomputed(const SceneView& scene, const Accel& acc
           sweep(sample_base);
           tape->truncate(sample_base);
         }
-        if (have) sweep(cell_base), tape->truncate(cell_base);
+        if (have) {
+          sweep(cell_base);
+          tape->truncate(cell_base);
+        }
       }
       sweep(segment_base);
       share_origin = adjoints(from);
