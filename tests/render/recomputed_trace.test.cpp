@@ -1,5 +1,5 @@
 // The recomputed reverse mode (render/recomputed_trace.hpp) against the
-// whole tape: the same gradient of a sum of rays on a sphere under seven
+// whole tape: the same gradient of a sum of rays on a sphere under eight
 // settings of the tracer and on spot at depth 16, each segment making the
 // same children when it is traced again, and a tape of half a segment.
 #include "support/trace_gradients.hpp"

@@ -185,10 +185,17 @@ inline std::vector<GradientCase> gradient_cases() {
   cut.gradient_depth = 3;
   TraceSettings sampled = drawn;  // stage 2's training: the grid integrated by 4 samples per segment
   sampled.integration.samples = 4;
-  return {{"full tree, clear", tree, 0},          {"full tree, homogeneous", tree, 1},
-          {"full tree, grid", tree, 2},           {"drawn path and roulette", drawn, 2},
-          {"main refraction path", main_path, 1}, {"gradient depth 3", cut, 2},
-          {"drawn path, grid by 4 samples", sampled, 2}};
+  sampled.integration.offset = 0.3f;
+  TraceSettings held = sampled;  // the absorption's derivative without the segments' ends (stage 2's vertex phase)
+  held.attenuation_path_gradient = false;
+  return {{"full tree, clear", tree, 0},
+          {"full tree, homogeneous", tree, 1},
+          {"full tree, grid", tree, 2},
+          {"drawn path and roulette", drawn, 2},
+          {"main refraction path", main_path, 1},
+          {"gradient depth 3", cut, 2},
+          {"drawn path, grid by 4 samples", sampled, 2},
+          {"drawn path, grid by 4 samples, its ends held", held, 2}};
 }
 inline void set_case_absorption(HostScene& s, int absorption) {
   if (absorption == 0) {

@@ -65,8 +65,9 @@ struct RecomputeLevel {
 // object) seeded on the outputs of each half and swept back to its inputs
 // and to the parameters it read, and the tape is cut back after each. The
 // tape then holds the larger half of one segment (the hit re-evaluated on
-// the vertices, the shading normal and the absorption along the way; or
-// Fresnel, refraction and the children's weights), whatever the depth; the
+// the vertices, the shading normal and the absorption along the way — of a
+// grid integrated by samples, one sample at a time, apart; or Fresnel,
+// refraction and the children's weights), whatever the depth; the
 // price is each segment traced twice. The recomputed halves take the walk's
 // values as inputs and run the same code, so they make the same children; a
 // child the walk did not make (or the other way round) gets no adjoint and
@@ -213,7 +214,7 @@ DT_HOST_DEVICE Vec3<T> trace_recomputed(const SceneView& scene, const Accel& acc
             have = true;
           }
           const std::int32_t sample_base = tape->mark();
-          seed(scene::sample_share(reader, scene.absorption, piece, k, corners, have), tau_adjoint);
+          seed(scene::sample_share(reader, scene.absorption, piece, k, corners), tau_adjoint);
           sweep(sample_base);
           tape->truncate(sample_base);
         }
@@ -247,7 +248,7 @@ DT_HOST_DEVICE Vec3<T> trace_recomputed(const SceneView& scene, const Accel& acc
     }
     sweep(base);
     if (out) {
-      out[0] = adjoints(in.origin) + share_origin;
+      out[0] = adjoints(in.origin) + (end.more ? share_origin : Vec3<T>(T(0), T(0), T(0)));
       out[1] = adjoints(in.direction) + at_direction;
       out[2] = adjoints(in.weight);
     }

@@ -310,15 +310,16 @@ DT_HOST_DEVICE SampledSpan<S> sampled_span(const AbsorptionField& f, const Vec3<
 }
 
 // Sigma (RGB) at sample k of K over the interval: the cell's corners read
-// into cs unless `have` says cs already holds that cell.
+// into cs unless `have` says cs already holds that cell. `known`: the
+// sample's cell as the caller chose it (sample_cell), used as given.
 template <class S, class Reader>
 DT_HOST_DEVICE Vec3<S> sigma_at_sample(Reader& reader, const AbsorptionField& f, const GridFrame<ad::scalar_t<S>>& g,
                                        const Vec3<S>& a, const SampledSpan<S>& in, int k, int samples, float offset,
-                                       CellSigma<S>& cs, bool& have) {
+                                       CellSigma<S>& cs, bool& have, const Vec3i* known = nullptr) {
   using T = ad::scalar_t<S>;
   const S t = in.t_first + in.span * ((T(k) + T(offset)) / T(samples));
   const Vec3<S> p = grid_point(g, a, in.ab, t);
-  const Vec3i cell = cell_of(g, ad::value_of(p));
+  const Vec3i cell = known ? *known : cell_of(g, ad::value_of(p));
   if (!have || cell != cs.cell) {
     read_cell(reader, f, cell, cs);
     have = true;
@@ -400,12 +401,12 @@ DT_HOST_DEVICE Vec3<S> optical_depth(Reader& reader, const AbsorptionField& f, c
 // 0), in pieces, as a reverse pass that records, sweeps and cuts them one at
 // a time takes them: the interval inside the box and each sample's weight
 // (that interval's length / K, in S), computed once; the cell a sample lies
-// in (values); sigma at a sample from its cell's corners (read_cell, or
-// read by the sample itself when `have` is false). sample_share(k) is
-// sample k's share of optical_depth — sigma × weight — and the K shares add
-// up to it (up to the order of the float sums). hit is false (nothing to
-// integrate) for a segment of zero length or missing the box, and for any
-// other field or integration.
+// in (sample_cell, on values); sigma at a sample from the corners of that
+// cell, read beforehand (detail::read_cell), so that a sample's share reads
+// no parameter. sample_share(k) is sample k's share of optical_depth —
+// sigma × weight — and the K shares add up to it (up to the order of the
+// float sums). hit is false (nothing to integrate) for a segment of zero
+// length or missing the box, and for any other field or integration.
 template <class S>
 struct SampledSegment {
   bool hit = false;
@@ -443,10 +444,14 @@ DT_HOST_DEVICE Vec3i sample_cell(const SampledSegment<S>& s, int k) {
   const T t = ad::value_of(s.span.t_first) + ad::value_of(s.span.span) * ((T(k) + T(s.offset)) / T(s.samples));
   return detail::cell_of(s.grid, detail::grid_point(s.grid, ad::value_of(s.a), ad::value_of(s.span.ab), t));
 }
+// Sample k's share; `corners` must hold sample_cell(s, k)'s corners.
 template <class S, class Reader>
 DT_HOST_DEVICE Vec3<S> sample_share(Reader& reader, const AbsorptionField& f, const SampledSegment<S>& s, int k,
-                                    detail::CellSigma<S>& cs, bool& have) {
-  return detail::sigma_at_sample(reader, f, s.grid, s.a, s.span, k, s.samples, s.offset, cs, have) * s.weight;
+                                    const detail::CellSigma<S>& corners) {
+  detail::CellSigma<S> cs = corners;
+  bool have = true;
+  const Vec3i cell = corners.cell;
+  return detail::sigma_at_sample(reader, f, s.grid, s.a, s.span, k, s.samples, s.offset, cs, have, &cell) * s.weight;
 }
 
 // The shares of the samples [first, end) summed: zero for an empty or
@@ -460,7 +465,12 @@ DT_HOST_DEVICE Vec3<S> optical_depth_share(Reader& reader, const AbsorptionField
   if (!s.hit || first < 0 || end > s.samples) return sum;
   detail::CellSigma<S> cs;
   bool have = false;
-  for (int k = first; k < end; ++k) sum += sample_share(reader, f, s, k, cs, have);
+  for (int k = first; k < end; ++k) {
+    const Vec3i cell = sample_cell(s, k);
+    if (!have || cell != cs.cell) detail::read_cell(reader, f, cell, cs);
+    have = true;
+    sum += sample_share(reader, f, s, k, cs);
+  }
   return sum;
 }
 
