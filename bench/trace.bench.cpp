@@ -5,6 +5,9 @@
 //             intersects: Embree (named bvh in a build without Embree, where
 //             HostScene traces with the portable BVH)
 //   primal    trace<float>
+//   primal_arrays  trace<float> with the hit triangle read from the mesh's
+//             arrays (indices, positions, normals) instead of its record
+//             (scene::TriangleRecord): the same radiance, bit for bit
 //   gradient  trace<Var<float>> + backward + scatter (one tape per ray)
 //   dual_ior  trace<Dual<float, 1>>, derivative along the IoR
 // Each iteration processes every camera ray once (items = camera rays), so
@@ -140,10 +143,12 @@ void accel_alone(benchmark::State& state, std::string name, int depth) {
   state.counters["segments_per_second"] = benchmark::Counter(double(segs.size()) * double(state.iterations()), benchmark::Counter::kIsRate);
 }
 
-void primal(benchmark::State& state, std::string name, dr::TraceSettings ts, Absorption absorption) {
+void primal(benchmark::State& state, std::string name, dr::TraceSettings ts, Absorption absorption,
+            bool records) {
   Workload& w = workload(name);
   set_absorption(*w.scene, absorption);
-  const dr::SceneView view = w.scene->view(false);
+  dr::SceneView view = w.scene->view(false);
+  if (!records) view.mesh.records = nullptr;
   const ad::ParamSet params = w.scene->params();
   ad::ParamReader<float> reader(&params);
   for (auto _ : state)
@@ -240,7 +245,10 @@ int main(int argc, char** argv) {
     for (int depth : {4, 8}) {
       const std::string prefix = name + "/d" + std::to_string(depth) + "/";
       benchmark::RegisterBenchmark((prefix + baseline).c_str(), accel_alone, name, depth)->Unit(benchmark::kMillisecond);
-      benchmark::RegisterBenchmark((prefix + "primal").c_str(), primal, name, settings(depth), Absorption::none)
+      benchmark::RegisterBenchmark((prefix + "primal").c_str(), primal, name, settings(depth), Absorption::none, true)
+          ->Unit(benchmark::kMillisecond);
+      benchmark::RegisterBenchmark((prefix + "primal_arrays").c_str(), primal, name, settings(depth),
+                                   Absorption::none, false)
           ->Unit(benchmark::kMillisecond);
       benchmark::RegisterBenchmark((prefix + "gradient").c_str(), gradient, name, settings(depth),
                                    Absorption::none, TapeMode::whole)
@@ -258,7 +266,7 @@ int main(int argc, char** argv) {
                                                        {"grid16", Absorption::grid16}};
   for (const auto& [label, model] : models) {
     const std::string prefix = std::string("horse/absorption/") + label + "/";
-    benchmark::RegisterBenchmark((prefix + "primal").c_str(), primal, "horse", training_settings(), model)
+    benchmark::RegisterBenchmark((prefix + "primal").c_str(), primal, "horse", training_settings(), model, true)
         ->Unit(benchmark::kMillisecond);
     benchmark::RegisterBenchmark((prefix + "gradient").c_str(), gradient, "horse", training_settings(), model, TapeMode::whole)
         ->Unit(benchmark::kMillisecond);
@@ -276,7 +284,7 @@ int main(int argc, char** argv) {
     dr::TraceSettings roulette = settings(16);
     roulette.roulette = true;
     roulette.prune_throughput = 0.01f;
-    benchmark::RegisterBenchmark((prefix + "primal").c_str(), primal, name, settings(16), Absorption::none)
+    benchmark::RegisterBenchmark((prefix + "primal").c_str(), primal, name, settings(16), Absorption::none, true)
         ->Unit(benchmark::kMillisecond);
     const std::pair<const char*, dr::TraceSettings> variants[] = {
         {"", settings(16)}, {"_roulette", roulette}, {"_training", training_settings()}};

@@ -7,7 +7,8 @@
 // reverse mode against the whole tape (the recomputed one:
 // recomputed_trace.test.cpp; the helpers of both: support/trace_gradients.hpp).
 // Near-field escapes: rays that leave the object read a radiance field (or a
-// room) at their own origin and direction.
+// room) at their own origin and direction. The triangle records give the
+// radiance and IoR derivative of the mesh arrays.
 #include "support/ad_check.hpp"
 #include "support/shapes.hpp"
 #include "support/trace_gradients.hpp"
@@ -741,4 +742,57 @@ TEST_CASE("near-field escape: the gradient pass runs with a field and leaves the
   for (float v : g.positions) norm += double(v) * v;
   CHECK(std::isfinite(norm));
   CHECK(norm > 0.0);
+}
+
+TEST_CASE("triangle records: the tracer's radiance and IoR derivative are those of the mesh arrays") {
+  // A torus (rays that leave and re-enter) and a sphere through a grid, with
+  // the Fresnel tree, a drawn path and roulette: every hit of the passes that
+  // read the positions as constants comes from scene::TriangleRecord, and
+  // must give what the arrays give.
+  for (const bool torus : {false, true}) {
+    CAPTURE(torus);
+    HostScene s = make_scene(torus ? make_torus(24, 12, 0.6f, 0.25f) : make_icosphere(0.5f, 3), 1.5f);
+    smooth_environment(s);
+    set_case_absorption(s, 2);
+    s.mesh.positions[4] += 0.01f;  // a vertex moved, then the normals, records and BVH remade
+    s.positions_changed();
+    for (const GradientCase& gc : gradient_cases()) {
+      CAPTURE(gc.name);
+      const render::SceneView with = s.view(false);
+      REQUIRE(with.mesh.records != nullptr);
+      render::SceneView without = with;
+      without.mesh.records = nullptr;
+      // d/dIoR by a Dual: the positions stay constants, so the records are read too
+      for (bool& d : s.differentiate) d = false;
+      s.differentiate[render::param_ior] = true;
+      const render::SceneView dual_with = s.view(true);
+      for (bool& d : s.differentiate) d = true;
+      REQUIRE(dual_with.mesh.records != nullptr);
+      render::SceneView dual_without = dual_with;
+      dual_without.mesh.records = nullptr;
+      ad::ParamSet params = s.params();
+      const float one = 1.0f;
+      params.buffers[render::param_ior].tangents[0] = &one;
+      ad::ParamReader<float> reader(&params);
+      ad::ParamReader<ad::Dual<float, 1>> dual_reader(&params);
+      int segments = 0, derivatives = 0;
+      for (const TestRay& r : rays_towards_centre(Vec3f(0.3f, 0.4f, 2.5f), 0.7f, 40)) {
+        TraceStats a, b;
+        const Vec3f La = render::trace<float>(with, s.accel(), reader, r.o, r.d, gc.ts, &a);
+        const Vec3f Lb = render::trace<float>(without, s.accel(), reader, r.o, r.d, gc.ts, &b);
+        CHECK(La == Lb);
+        CHECK(a.segments == b.segments);
+        segments += a.segments;
+        const auto Da = render::trace<ad::Dual<float, 1>>(dual_with, s.accel(), dual_reader, r.o, r.d, gc.ts);
+        const auto Db = render::trace<ad::Dual<float, 1>>(dual_without, s.accel(), dual_reader, r.o, r.d, gc.ts);
+        for (int c = 0; c < 3; ++c) {
+          CHECK(Da[c].value == Db[c].value);
+          CHECK(Da[c].grad[0] == Db[c].grad[0]);
+          derivatives += Da[c].grad[0] != 0.0f;
+        }
+      }
+      CHECK(segments > 40 * 3);
+      CHECK(derivatives > 40);
+    }
+  }
 }

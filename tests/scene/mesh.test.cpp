@@ -2,7 +2,11 @@
 // computation, the CSR adjacency, Möller–Trumbore in S (interior, edge,
 // vertex, degenerate), and derivatives of hit point, barycentrics and shading
 // normal with respect to vertex coordinates and the ray against central
-// differences; forward against reverse through the library's readers.
+// differences; forward against reverse through the library's readers;
+// the triangle records against the arrays they are made from.
+#include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <map>
 
 #include "scene/scene_check.hpp"
@@ -352,4 +356,124 @@ TEST_CASE("forward and reverse mode agree through the library's readers") {
       return out == 0 ? h.hit.t : out == 1 ? h.hit.b1 : out == 2 ? h.hit.b2 : out < 6 ? h.point.p[out - 3] : h.point.n[out - 6];
     });
   }
+}
+
+namespace {
+
+// The bits of a float, so that two values compare equal only when they are
+// the same number (and NaN equals NaN).
+std::uint32_t bits(float x) {
+  std::uint32_t b;
+  std::memcpy(&b, &x, sizeof b);
+  return b;
+}
+
+template <class S>
+void check_same_bits(const S& a, const S& b) {
+  CHECK(bits(float(ad::value_of(a))) == bits(float(ad::value_of(b))));
+  // derivatives: equal numbers (a constant's zero derivative may carry
+  // either sign: the records hold the face normal as a constant)
+  if constexpr (ad::is_dual_v<S>)
+    for (int k = 0; k < S::lanes; ++k)
+      CHECK((a.grad[k] == b.grad[k] || (std::isnan(a.grad[k]) && std::isnan(b.grad[k]))));
+}
+
+template <class S>
+void check_same_bits(const Vec3<S>& a, const Vec3<S>& b) {
+  for (int c = 0; c < 3; ++c) check_same_bits(a[c], b[c]);
+}
+
+}  // namespace
+
+TEST_CASE_TEMPLATE("triangle records: the hits and surface points of the arrays, bit for bit", S, float,
+                   ad::Dual<float, 1>, ad::Dual<float, 3>) {
+  TriangleMesh m = icosphere();
+  m.triangles.insert(m.triangles.end(), {0, 1, 1});  // a face of zero area: its record has none
+  m.build_adjacency();
+  // moved as an optimizer step moves them; update_normals remakes the records
+  for (std::size_t k = 0; k < m.positions.size(); ++k) m.positions[k] *= 1.0f + 0.07f * std::sin(float(k));
+  m.update_normals();
+  const MeshView with = m.view();
+  REQUIRE(with.records != nullptr);
+  MeshView without = with;
+  without.records = nullptr;
+  CHECK(scene::detail::use_records<S>(with, NormalMode::automatic));
+  CHECK(scene::detail::use_records<S>(with, NormalMode::precomputed));
+  CHECK_FALSE(scene::detail::use_records<S>(with, NormalMode::one_ring));     // normals from the one-rings
+  CHECK_FALSE(scene::detail::use_records<S>(m.view(0), NormalMode::automatic));  // the positions a parameter
+  CHECK_FALSE(scene::detail::use_records<double>(with, NormalMode::automatic));  // made in float
+  CHECK_FALSE(scene::detail::use_records<S>(without, NormalMode::automatic));
+  CHECK(m.records.back().area == 0);
+
+  ad::ParamReader<float> unused(nullptr);  // frozen positions: nothing is read through it
+  int hits = 0;
+  for (std::int32_t f = 0; f < m.num_triangles(); ++f) {
+    CAPTURE(f);
+    const std::int32_t* t = &m.triangles[std::size_t(3 * f)];
+    const auto P = [&](int k) {
+      const std::size_t v = std::size_t(t[k]);
+      return Vec3f(m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2]);
+    };
+    // towards an inner point and towards a point on an edge, from outside
+    bool inner = true;
+    for (const Vec3f& target : {0.5f * P(0) + 0.3f * P(1) + 0.2f * P(2), 0.5f * P(1) + 0.5f * P(2)}) {
+      const Vec3f eye = 3.0f * target + Vec3f(0.1f, -0.2f, 0.3f);
+      const Vec3f dir = glm::normalize(target - eye);
+      // derivatives along the ray's origin and direction (Dual lanes)
+      Vec3<S> o(eye.x, eye.y, eye.z), d(dir.x, dir.y, dir.z);
+      if constexpr (ad::is_dual_v<S>)
+        for (int c = 0; c < 3; ++c) {
+          o[c].grad[c % S::lanes] = 1.0f;
+          d[c].grad[(c + 1) % S::lanes] = 0.5f;
+        }
+      const auto a = scene::reevaluate_hit(unused, with, f, o, d);
+      const auto b = scene::reevaluate_hit(unused, without, f, o, d);
+      CHECK(a.hit.valid == b.hit.valid);
+      CHECK(a.hit.inside == b.hit.inside);
+      CHECK(a.point.valid == b.point.valid);
+      hits += inner && a.hit.valid && a.hit.inside;
+      check_same_bits(a.hit.t, b.hit.t);
+      check_same_bits(a.hit.b1, b.hit.b1);
+      check_same_bits(a.hit.b2, b.hit.b2);
+      check_same_bits(a.point.p, b.point.p);
+      check_same_bits(a.point.n, b.point.n);
+      check_same_bits(a.point.ng, b.point.ng);
+      const auto c = scene::surface_point(unused, with, f, S(0.25f), S(0.6f));
+      const auto e = scene::surface_point(unused, without, f, S(0.25f), S(0.6f));
+      CHECK(c.valid == e.valid);
+      check_same_bits(c.p, e.p);
+      check_same_bits(c.n, e.n);
+      check_same_bits(c.ng, e.ng);
+      inner = false;
+    }
+  }
+  CHECK(hits == 80);  // every face of the sphere at its inner point; the face of zero area has no hit
+}
+
+TEST_CASE("triangle records follow the positions: update_normals remakes them, a stale record is seen") {
+  TriangleMesh m = icosphere();
+  const TriangleMesh before = m;
+  for (float& x : m.positions) x *= 1.5f;
+  // not yet remade: the records still hold the old vertices, and the hits differ
+  ad::ParamReader<float> unused(nullptr);
+  const Vec3f o(0.05f, 0.02f, 3.0f), d(0.0f, 0.0f, -1.0f);
+  std::int32_t front = -1;
+  for (std::int32_t f = 0; f < m.num_triangles() && front < 0; ++f) {
+    MeshView arrays = m.view();
+    arrays.records = nullptr;
+    const auto h = scene::reevaluate_hit(unused, arrays, f, o, d);
+    if (h.hit.valid && h.hit.inside && glm::dot(h.point.ng, d) < 0.0f) front = f;
+  }
+  REQUIRE(front >= 0);
+  MeshView arrays = m.view();
+  arrays.records = nullptr;
+  const auto truth = scene::reevaluate_hit(unused, arrays, front, o, d);
+  CHECK(scene::reevaluate_hit(unused, m.view(), front, o, d).hit.t != truth.hit.t);
+  CHECK(scene::reevaluate_hit(unused, before.view(), front, o, d).hit.t ==
+        scene::reevaluate_hit(unused, m.view(), front, o, d).hit.t);
+  m.update_normals();
+  CHECK(scene::reevaluate_hit(unused, m.view(), front, o, d).hit.t == truth.hit.t);
+  // the front of the sphere of radius 1.5 (its facets lie within 10 % inside)
+  CHECK(truth.hit.t > 3.0f - 1.5f);
+  CHECK(truth.hit.t < 3.0f - 1.35f);
 }

@@ -71,6 +71,7 @@ class DeviceScene {
     v.mesh.normals.values = v.mesh.normals.values ? normals_->data() : nullptr;
     v.mesh.vf_offsets = v.mesh.vf_offsets ? vf_offsets_->data() : nullptr;
     v.mesh.vf_faces = vf_faces_->data();
+    v.mesh.records = nullptr;  // host memory; the device reads the arrays
     v.ior.values = ior_->data();
     v.absorption.params.values = absorption_->data();
     v.environment.texels.values = environment_->data();

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <limits>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -32,6 +33,20 @@ namespace difftrans::scene {
 // values agree. Positions read once are cached per hit (a small fixed cache),
 // so a shared vertex becomes one leaf.
 
+// One triangle's float data in one place, for the passes that read the
+// positions as constants: its three vertices, their precomputed normals and
+// its unit geometric normal, as the generic path computes them from the
+// arrays (bit for bit), so that a hit reads one record instead of three
+// indices, three positions and three normals scattered over the arrays, and
+// does not recompute the face normal. Written by TriangleMesh::update_normals.
+struct TriangleRecord {
+  float p[3][3];   // vertex positions
+  float n[3][3];   // vertex normals (the precomputed array's)
+  float ng[3];     // unit geometric normal (winding order); zero for zero area
+  std::int32_t area = 0;  // 1: the triangle has a non-zero area (SurfacePoint::valid)
+  float pad[2] = {0.0f, 0.0f};
+};
+
 // A non-owning view of a mesh, copyable to a device. Arrays:
 // positions 3 * num_vertices (x y z), triangles 3 * num_triangles,
 // vertex_normals 3 * num_vertices, vf_offsets num_vertices + 1 and vf_faces:
@@ -47,6 +62,10 @@ struct MeshView {
   ad::ParamSource normals;
   const std::int32_t* vf_offsets = nullptr;
   const std::int32_t* vf_faces = nullptr;
+  // num_triangles records made from `positions` and `vertex_normals`, or
+  // nullptr. Read (see use_records) only where they equal what the arrays
+  // give: float scalars, frozen positions and the precomputed normals.
+  const TriangleRecord* records = nullptr;
   std::int32_t num_vertices = 0;
   std::int32_t num_triangles = 0;
 };
@@ -211,6 +230,39 @@ DT_HOST_DEVICE bool use_one_ring(const MeshView& m, NormalMode mode) {
          m.vf_offsets != nullptr;
 }
 
+// Whether a pass in S reads a hit triangle from m.records: its scalar is
+// float-valued (the records were computed in float), the positions are
+// constants and the shading normals are the precomputed array's.
+template <class S>
+DT_HOST_DEVICE bool use_records(const MeshView& m, NormalMode mode) {
+  if constexpr (!std::is_same_v<ad::scalar_t<S>, float>) {
+    return false;
+  } else {
+    return m.records != nullptr && m.vertex_normals != nullptr && !m.positions.differentiable() &&
+           !use_normal_parameter<S>(m, mode) && !use_one_ring<S>(m, mode);
+  }
+}
+
+template <class S>
+DT_HOST_DEVICE Vec3<S> record_vec(const float (&v)[3]) {
+  return Vec3<S>(S(v[0]), S(v[1]), S(v[2]));
+}
+
+// surface_point_cached's result, from a record (use_records): the same
+// operations on the same values.
+template <class S>
+DT_HOST_DEVICE SurfacePoint<S> surface_point_record(const TriangleRecord& r, const S& b1, const S& b2) {
+  using T = ad::scalar_t<S>;
+  const S b0 = T(1) - b1 - b2;
+  SurfacePoint<S> sp;
+  sp.p = record_vec<S>(r.p[0]) * b0 + record_vec<S>(r.p[1]) * b1 + record_vec<S>(r.p[2]) * b2;
+  sp.valid = r.area != 0;
+  sp.ng = record_vec<S>(r.ng);
+  sp.n = record_vec<S>(r.n[0]) * b0 + record_vec<S>(r.n[1]) * b1 + record_vec<S>(r.n[2]) * b2;
+  if (!normalize_nonzero(sp.n)) sp.n = sp.ng;
+  return sp;
+}
+
 template <class S, class Reader, int N>
 DT_HOST_DEVICE SurfacePoint<S> surface_point_cached(Reader& reader, const MeshView& m, std::int32_t tri,
                                                     const S& b1, const S& b2, NormalMode mode,
@@ -249,6 +301,7 @@ DT_HOST_DEVICE SurfacePoint<S> surface_point_cached(Reader& reader, const MeshVi
 template <class S, class Reader>
 DT_HOST_DEVICE SurfacePoint<S> surface_point(Reader& reader, const MeshView& m, std::int32_t tri, const S& b1,
                                              const S& b2, NormalMode mode = NormalMode::automatic) {
+  if (detail::use_records<S>(m, mode)) return detail::surface_point_record(m.records[tri], b1, b2);
   detail::PositionCache<S> cache;
   return detail::surface_point_cached(reader, m, tri, b1, b2, mode, cache);
 }
@@ -260,9 +313,17 @@ DT_HOST_DEVICE SurfacePoint<S> surface_point(Reader& reader, const MeshView& m, 
 template <class S, class Reader>
 DT_HOST_DEVICE SurfaceHit<S> reevaluate_hit(Reader& reader, const MeshView& m, std::int32_t tri, const Vec3<S>& o,
                                             const Vec3<S>& d, NormalMode mode = NormalMode::automatic) {
+  SurfaceHit<S> r;
+  if (detail::use_records<S>(m, mode)) {
+    const TriangleRecord& rec = m.records[tri];
+    r.hit = intersect_triangle(o, d, detail::record_vec<S>(rec.p[0]), detail::record_vec<S>(rec.p[1]),
+                               detail::record_vec<S>(rec.p[2]));
+    r.point = detail::surface_point_record(rec, r.hit.b1, r.hit.b2);
+    if (!r.hit.valid) r.point.valid = false;
+    return r;
+  }
   detail::PositionCache<S> cache;
   const std::int32_t* idx = m.triangles + 3 * tri;
-  SurfaceHit<S> r;
   r.hit = intersect_triangle(o, d, cache.get(reader, m, idx[0]), cache.get(reader, m, idx[1]),
                              cache.get(reader, m, idx[2]));
   r.point = detail::surface_point_cached(reader, m, tri, r.hit.b1, r.hit.b2, mode, cache);
@@ -281,6 +342,7 @@ class TriangleMesh {
   std::vector<float> vertex_normals;     // 3 per vertex
   std::vector<std::int32_t> vf_offsets;  // num_vertices + 1
   std::vector<std::int32_t> vf_faces;
+  std::vector<TriangleRecord> records;   // num_triangles, made with the normals
 
   TriangleMesh() = default;
   TriangleMesh(std::vector<float> pos, std::vector<std::int32_t> tris)
@@ -301,14 +363,34 @@ class TriangleMesh {
   }
 
   // Recomputes the float vertex normals from the positions (same code as the
-  // generic path, so the values match what one_ring gives in float).
+  // generic path, so the values match what one_ring gives in float), then
+  // the triangle records from both.
   void update_normals() {
     vertex_normals.assign(positions.size(), 0.0f);
-    const MeshView m = view();
+    records.clear();
+    MeshView m = view();
     ad::ParamReader<float> unused(nullptr);  // the positions are read as constants
     for (std::int32_t v = 0; v < num_vertices(); ++v) {
       const Vec3f n = vertex_normal<float>(unused, m, v);
       for (int c = 0; c < 3; ++c) vertex_normals[std::size_t(3 * v + c)] = n[c];
+    }
+    m = view();
+    records.resize(std::size_t(num_triangles()));
+    for (std::int32_t f = 0; f < num_triangles(); ++f) {
+      TriangleRecord& r = records[std::size_t(f)];
+      Vec3f p[3];
+      for (int k = 0; k < 3; ++k) {
+        const std::size_t v = std::size_t(triangles[std::size_t(3 * f + k)]);
+        for (int c = 0; c < 3; ++c) {
+          r.p[k][c] = positions[3 * v + std::size_t(c)];
+          r.n[k][c] = vertex_normals[3 * v + std::size_t(c)];
+        }
+        p[k] = Vec3f(r.p[k][0], r.p[k][1], r.p[k][2]);
+      }
+      Vec3f ng(0.0f);
+      r.area = detail::unit_face_normal(p[0], p[1], p[2], ng) ? 1 : 0;
+      if (!r.area) ng = Vec3f(0.0f);
+      for (int c = 0; c < 3; ++c) r.ng[c] = ng[c];
     }
   }
 
@@ -358,6 +440,7 @@ class TriangleMesh {
                             m.vertex_normals ? normal_buffer : -1};
     m.vf_offsets = vf_offsets.empty() ? nullptr : vf_offsets.data();
     m.vf_faces = vf_faces.data();
+    m.records = records.size() == std::size_t(num_triangles()) && m.vertex_normals ? records.data() : nullptr;
     m.num_vertices = num_vertices();
     m.num_triangles = num_triangles();
     return m;
