@@ -39,12 +39,14 @@ namespace difftrans::scene {
 // arrays (bit for bit), so that a hit reads one record instead of three
 // indices, three positions and three normals scattered over the arrays, and
 // does not recompute the face normal. Written by TriangleMesh::update_normals.
+// 88 bytes: what Möller–Trumbore reads first comes first (bench_trace,
+// primal against primal_arrays: the record is the hit's one cache miss
+// on meshes larger than the cache).
 struct TriangleRecord {
   float p[3][3];   // vertex positions
-  float n[3][3];   // vertex normals (the precomputed array's)
   float ng[3];     // unit geometric normal (winding order); zero for zero area
   std::int32_t area = 0;  // 1: the triangle has a non-zero area (SurfacePoint::valid)
-  float pad[2] = {0.0f, 0.0f};
+  float n[3][3];   // vertex normals (the precomputed array's)
 };
 
 // A non-owning view of a mesh, copyable to a device. Arrays:
