@@ -143,6 +143,17 @@ TEST_CASE("stage 2 chooses the absorption model from the photographs") {
   const double start = 1.5, ior_none = candidates[1]["ior"].get<double>();
   CHECK(ior_none != candidates[0]["ior"].get<double>());
   if (expected == "none") CHECK(std::abs(ior_none - 1.45) < 0.5 * std::abs(start - 1.45));
+  // and each of the two is scored at the better of the two IoRs: its own,
+  // or the other's when that lowers its held-out loss
+  for (std::size_t k = 0; k < 2; ++k) {
+    const auto& c = candidates[k];
+    CAPTURE(k);
+    REQUIRE(c.contains("scored_ior"));
+    const double own = c["ior"].get<double>(), other = candidates[1 - k]["ior"].get<double>();
+    const double at_own = c["heldout_loss"].get<double>(), at_other = c["heldout_loss_at_other_ior"].get<double>();
+    CHECK(std::isfinite(at_other));
+    CHECK(c["scored_ior"].get<double>() == doctest::Approx(at_other < at_own ? other : own).epsilon(1e-6));
+  }
   if (expected == "grid") {
     REQUIRE(choice.contains("res"));
     CHECK(s.absorption_res.x == choice["res"].get<int>());
