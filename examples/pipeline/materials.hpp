@@ -1990,13 +1990,9 @@ class Stage2 {
     };
     io::Json candidates = io::Json::array(), comparisons = io::Json::array();
     const auto add_candidate = [&](const std::vector<double>& losses, double seconds) {
-      double sum = 0.0;
-      std::size_t n = 0;
-      for (double x : losses)
-        if (std::isfinite(x)) sum += x, ++n;
       const Vec3f ms = mean_sigma();
       candidates.push_back({{"model", model_label(scene_.absorption_kind, scene_.absorption_res.x)},
-                            {"heldout_loss", n ? sum / double(n) : std::numeric_limits<double>::quiet_NaN()},
+                            {"heldout_loss", mean_finite(losses)},
                             {"ior", scene_.ior},
                             {"mean_sigma", {ms.x, ms.y, ms.z}},
                             {"parameters", scene_.absorption_raw.size()},
@@ -2059,15 +2055,8 @@ class Stage2 {
     scene_.absorption_raw = homogeneous_raw;
     scene_.ior = clear_ior;
     const std::vector<double> homogeneous_at_other = held_out_losses();
-    const auto mean_finite = [](const std::vector<double>& v) {
-      double sum = 0.0;
-      std::size_t n = 0;
-      for (double x : v)
-        if (std::isfinite(x)) sum += x, ++n;
-      return n ? sum / double(n) : std::numeric_limits<double>::infinity();
-    };
-    const bool clear_moves = mean_finite(clear_at_other) < mean_finite(clear);
-    const bool homogeneous_moves = mean_finite(homogeneous_at_other) < mean_finite(homogeneous);
+    const bool clear_moves = judged_at_other(clear, clear_at_other);
+    const bool homogeneous_moves = judged_at_other(homogeneous, homogeneous_at_other);
     const float homogeneous_scored_ior = homogeneous_moves ? clear_ior : homogeneous_ior;
     candidates[std::size_t{0}]["scored_ior"] = homogeneous_scored_ior;
     candidates[std::size_t{0}]["heldout_loss_at_other_ior"] = mean_finite(homogeneous_at_other);

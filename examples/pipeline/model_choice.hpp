@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <limits>
 #include <vector>
 
 namespace difftrans::pipeline {
@@ -58,6 +59,25 @@ inline PairedComparison compare_paired(const std::vector<double>& simpler, const
   const double var = c.pixels > 1 ? std::max(0.0, (sum_d2 - m * c.gain * c.gain) / (m - 1.0)) : 0.0;
   c.standard_error = std::sqrt(var / m);
   return c;
+}
+
+// The mean of the finite entries (NaN: none finite).
+inline double mean_finite(const std::vector<double>& v) {
+  double sum = 0.0;
+  std::size_t n = 0;
+  for (double x : v)
+    if (std::isfinite(x)) sum += x, ++n;
+  return n ? sum / double(n) : std::numeric_limits<double>::quiet_NaN();
+}
+
+// Two candidates that share a parameter each fitted its own way (stage 2's
+// none and homogeneous absorption, the IoR): each is scored at its own value
+// and at the other's, and judged by the lower mean. The shared parameter's
+// fitting noise is no merit of either model; judged at their own values only,
+// a clear object took a faint tint because its homogeneous fit had happened
+// to land nearer the true IoR. True: judge this candidate by `at_other`.
+inline bool judged_at_other(const std::vector<double>& at_own, const std::vector<double>& at_other) {
+  return mean_finite(at_other) < mean_finite(at_own);
 }
 
 }  // namespace difftrans::pipeline

@@ -250,34 +250,40 @@ DT_HOST_DEVICE Vec3<S> record_vec(const float (&v)[3]) {
   return Vec3<S>(S(v[0]), S(v[1]), S(v[2]));
 }
 
-// surface_point_cached's result, from a record (use_records): the same
-// operations on the same values.
+// The surface point at barycentrics (b1, b2) of the triangle with corners
+// p[3], unit face normal ng (valid: a non-zero area; zero otherwise) and
+// vertex normals vn[3]: what the arrays' path and the records' path share.
 template <class S>
-DT_HOST_DEVICE SurfacePoint<S> surface_point_record(const TriangleRecord& r, const S& b1, const S& b2) {
+DT_HOST_DEVICE SurfacePoint<S> interpolate_surface_point(const Vec3<S> (&p)[3], const Vec3<S>& ng, bool valid,
+                                                         const Vec3<S> (&vn)[3], const S& b1, const S& b2) {
   using T = ad::scalar_t<S>;
   const S b0 = T(1) - b1 - b2;
   SurfacePoint<S> sp;
-  sp.p = record_vec<S>(r.p[0]) * b0 + record_vec<S>(r.p[1]) * b1 + record_vec<S>(r.p[2]) * b2;
-  sp.valid = r.area != 0;
-  sp.ng = record_vec<S>(r.ng);
-  sp.n = record_vec<S>(r.n[0]) * b0 + record_vec<S>(r.n[1]) * b1 + record_vec<S>(r.n[2]) * b2;
+  sp.p = p[0] * b0 + p[1] * b1 + p[2] * b2;
+  sp.valid = valid;
+  sp.ng = ng;
+  sp.n = vn[0] * b0 + vn[1] * b1 + vn[2] * b2;
   if (!normalize_nonzero(sp.n)) sp.n = sp.ng;
   return sp;
+}
+
+// surface_point_cached's result, from a record (use_records).
+template <class S>
+DT_HOST_DEVICE SurfacePoint<S> surface_point_record(const TriangleRecord& r, const S& b1, const S& b2) {
+  const Vec3<S> p[3] = {record_vec<S>(r.p[0]), record_vec<S>(r.p[1]), record_vec<S>(r.p[2])};
+  const Vec3<S> vn[3] = {record_vec<S>(r.n[0]), record_vec<S>(r.n[1]), record_vec<S>(r.n[2])};
+  return interpolate_surface_point(p, record_vec<S>(r.ng), r.area != 0, vn, b1, b2);
 }
 
 template <class S, class Reader, int N>
 DT_HOST_DEVICE SurfacePoint<S> surface_point_cached(Reader& reader, const MeshView& m, std::int32_t tri,
                                                     const S& b1, const S& b2, NormalMode mode,
                                                     PositionCache<S, N>& cache) {
-  using T = ad::scalar_t<S>;
   const std::int32_t* idx = m.triangles + 3 * tri;
-  const Vec3<S> p0 = cache.get(reader, m, idx[0]), p1 = cache.get(reader, m, idx[1]),
-                p2 = cache.get(reader, m, idx[2]);
-  const S b0 = T(1) - b1 - b2;
-  SurfacePoint<S> sp;
-  sp.p = p0 * b0 + p1 * b1 + p2 * b2;
-  sp.valid = unit_face_normal(p0, p1, p2, sp.ng);
-  if (!sp.valid) sp.ng = Vec3<S>(S(0), S(0), S(0));
+  const Vec3<S> p[3] = {cache.get(reader, m, idx[0]), cache.get(reader, m, idx[1]), cache.get(reader, m, idx[2])};
+  Vec3<S> ng;
+  const bool valid = unit_face_normal(p[0], p[1], p[2], ng);
+  if (!valid) ng = Vec3<S>(S(0), S(0), S(0));
   Vec3<S> vn[3];
   if (use_normal_parameter<S>(m, mode)) {
     for (int k = 0; k < 3; ++k) vn[k] = ad::load3<S>(reader, m.normals, idx[k]);
@@ -289,11 +295,9 @@ DT_HOST_DEVICE SurfacePoint<S> surface_point_cached(Reader& reader, const MeshVi
       vn[k] = Vec3<S>(S(q[0]), S(q[1]), S(q[2]));
     }
   } else {
-    for (int k = 0; k < 3; ++k) vn[k] = sp.ng;
+    for (int k = 0; k < 3; ++k) vn[k] = ng;
   }
-  sp.n = vn[0] * b0 + vn[1] * b1 + vn[2] * b2;
-  if (!normalize_nonzero(sp.n)) sp.n = sp.ng;
-  return sp;
+  return interpolate_surface_point(p, ng, valid, vn, b1, b2);
 }
 
 }  // namespace detail
@@ -370,13 +374,12 @@ class TriangleMesh {
   void update_normals() {
     vertex_normals.assign(positions.size(), 0.0f);
     records.clear();
-    MeshView m = view();
+    const MeshView m = view();
     ad::ParamReader<float> unused(nullptr);  // the positions are read as constants
     for (std::int32_t v = 0; v < num_vertices(); ++v) {
       const Vec3f n = vertex_normal<float>(unused, m, v);
       for (int c = 0; c < 3; ++c) vertex_normals[std::size_t(3 * v + c)] = n[c];
     }
-    m = view();
     records.resize(std::size_t(num_triangles()));
     for (std::int32_t f = 0; f < num_triangles(); ++f) {
       TriangleRecord& r = records[std::size_t(f)];
