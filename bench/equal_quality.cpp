@@ -16,6 +16,10 @@
 //   roulette+path  roulette, with the Fresnel tree for the first 2
 //               interactions and one branch sampled by Fresnel weight beyond
 //   adaptive+path  adaptive, the same
+//   levels      roulette, n x n samples everywhere, then m x m more in the
+//               pixels whose samples spread by more than a tolerance (8-bit
+//               tone-mapped levels) and in their neighbours, and so on
+//               (render/adaptive.hpp, render_image_levels; --levels below)
 //   footprints  roulette, each sample reading the environment averaged over
 //               its stratum's footprint (render/footprint.hpp); with
 //               --footprint-angles A1,A2,... one curve per largest angle
@@ -28,10 +32,19 @@
 //        --converged N          the converged render's N × N samples (27)
 //        --footprint-angles A1,A2,...   footprint curves with these largest
 //                               footprint edges (radians; default 0.3)
+//        --levels G/T/D[/R],... levels points: grids G (2-8: 2 x 2, then
+//                               8 x 8; 2-8-24: three levels), tolerance T
+//                               levels, dilation D, roulette below R (0.01);
+//                               one curve per all but the last grid and
+//                               T/D/R (default 2-m/32/1, m = 6, 8, 10;
+//                               2-8-m/64/1, m = 16, 32; 4-16-48/64/1)
+//        --only C1,C2,...       run only these curves (and the reference);
+//                               a name matches itself and "NAME ..." curves
 //        --device cuda          the uniform curves traced on the GPU (the
 //                               time of a view: its launches and the image
 //                               read back); the adaptive ones need the host
-// Writes equal_quality.json into --out.
+// Each point also says how much of its error the worst 5 % of the object's
+// pixels carry (error_profile). Writes equal_quality.json into --out.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -40,9 +53,11 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -66,9 +81,15 @@ using difftrans::Vec3f;
 
 namespace {
 
+struct ErrorProfile {
+  double worst_share = 0.0, psnr_without_worst = 0.0;
+};
+
 struct Point {
   std::string budget;
   double seconds = 0, psnr = 0, samples = 0;
+  double psnr_image = 0;  // the whole image's, background too
+  ErrorProfile worst;  // error_profile at 5 % of the pixels
 };
 
 struct Curve {
@@ -85,6 +106,47 @@ double object_psnr(const std::vector<float>& img, const std::vector<std::uint8_t
   const std::vector<std::uint8_t> img8 = difftrans::io::tone_map(image);
   return difftrans::metrics::psnr({img8.data(), mask.width, mask.height}, {converged8.data(), mask.width, mask.height},
                                   &mask);
+}
+
+// Where the error of an image lies: the share of the squared tone-mapped
+// error (all channels of a pixel together) that the worst `fraction` of the
+// object's pixels carry, and the PSNR the image would have were those pixels
+// exact. A large share says that more samples in a few pixels could buy what
+// more samples everywhere buy (an upper bound: it knows the converged image).
+ErrorProfile error_profile(const std::vector<float>& img, const std::vector<std::uint8_t>& converged8,
+                           const difftrans::io::Mask& mask, double fraction) {
+  difftrans::io::Image image(mask.width, mask.height);
+  image.rgb = img;
+  const std::vector<std::uint8_t> img8 = difftrans::io::tone_map(image);
+  std::vector<double> err;
+  for (std::size_t p = 0; p < mask.inside.size(); ++p) {
+    if (!mask.inside[p]) continue;
+    double e = 0.0;
+    for (std::size_t c = 0; c < 3; ++c) {
+      const double d = double(img8[3 * p + c]) - double(converged8[3 * p + c]);
+      e += d * d;
+    }
+    err.push_back(e);
+  }
+  ErrorProfile r;
+  if (err.empty()) return r;
+  std::sort(err.begin(), err.end(), std::greater<double>());
+  const std::size_t worst = std::size_t(std::ceil(fraction * double(err.size())));
+  double total = 0.0, top = 0.0;
+  for (std::size_t i = 0; i < err.size(); ++i) (i < worst ? top : total) += err[i];
+  total += top;
+  r.worst_share = total > 0.0 ? top / total : 0.0;
+  const double mse = (total - top) / double(3 * err.size());
+  r.psnr_without_worst = mse > 0.0 ? 10.0 * std::log10(255.0 * 255.0 / mse) : std::numeric_limits<double>::infinity();
+  return r;
+}
+
+// PSNR of the whole tone-mapped image (background too) against the converged one
+double image_psnr(const std::vector<float>& img, const std::vector<std::uint8_t>& converged8, int width, int height) {
+  difftrans::io::Image image(width, height);
+  image.rgb = img;
+  const std::vector<std::uint8_t> img8 = difftrans::io::tone_map(image);
+  return difftrans::metrics::psnr({img8.data(), width, height}, {converged8.data(), width, height});
 }
 
 // The time a curve needs to reach `target` dB: linear in log time between the
@@ -115,8 +177,18 @@ std::vector<double> parse_list(const std::string& text) {
 int main(int argc, char** argv) {
   std::string mesh_name = "spot", env_name = "venice_sunset_1k.hdr", out_dir = ".", targets_text = "23,28,33",
               scene_dir, roulette_text, device = "cpu",
-              footprint_text = "0.3";
+              footprint_text = "0.3", only_text;
   int converged_per_axis = 27;
+  // --levels points: GRIDS/tolerance/dilation[/roulette], GRIDS as 2-8 or 2-8-24
+  struct LevelSpec {
+    std::vector<int> grids;
+    float tolerance = 32.0f;
+    int dilate = 1;
+    float roulette = 0.01f;
+    std::string text;
+  };
+  std::vector<LevelSpec> level_specs;
+  std::string levels_text = "2-6/32/1,2-8/32/1,2-10/32/1,2-8-16/64/1,2-8-32/64/1,4-16-48/64/1";
   float ior = 1.472f;
   int size = 128, view = 0;
   for (int i = 1; i + 1 < argc; i += 2) {
@@ -133,13 +205,46 @@ int main(int argc, char** argv) {
     else if (a == "--device") device = argv[i + 1];
     else if (a == "--footprint-angles") footprint_text = argv[i + 1];
     else if (a == "--converged") converged_per_axis = std::atoi(argv[i + 1]);
+    else if (a == "--only") only_text = argv[i + 1];
+    else if (a == "--levels") levels_text = argv[i + 1];
     else {
       std::fprintf(stderr,
                    "equal_quality: unknown option %s\nusage: equal_quality [--mesh spot] [--ior 1.472] "
                    "[--env venice_sunset_1k.hdr] [--size 128] [--targets 23,28,33] [--scene DIR] [--view K] "
-                   "[--roulette T1,T2] [--footprint-angles A1,A2] [--converged N] [--device cpu|cuda] [--out DIR]\n",
+                   "[--roulette T1,T2] [--footprint-angles A1,A2] [--converged N] [--only C1,C2] [--levels G/T/D[/R],...] "
+                   "[--device cpu|cuda] "
+                   "[--out DIR]\n",
                    a.c_str());
       return 2;
+    }
+  }
+  {
+    std::stringstream list(levels_text);
+    for (std::string item; std::getline(list, item, ',');) {
+      LevelSpec spec;
+      spec.text = item;
+      std::vector<std::string> parts;
+      std::stringstream fields(item);
+      for (std::string f; std::getline(fields, f, '/');) parts.push_back(f);
+      bool ok = parts.size() == 3 || parts.size() == 4;
+      if (ok) {
+        std::stringstream grids(parts[0]);
+        for (std::string g; std::getline(grids, g, '-');) spec.grids.push_back(std::atoi(g.c_str()));
+        spec.tolerance = float(std::atof(parts[1].c_str()));
+        spec.dilate = std::atoi(parts[2].c_str());
+        if (parts.size() == 4) spec.roulette = float(std::atof(parts[3].c_str()));
+        ok = !spec.grids.empty() && spec.dilate >= 0 && spec.tolerance > 0.0f && spec.roulette >= 0.0f &&
+             spec.roulette <= 1.0f;
+        for (int g : spec.grids) ok = ok && g >= 1;
+      }
+      if (!ok) {
+        std::fprintf(stderr,
+                     "equal_quality: --levels %s: expected GRIDS/TOLERANCE/DILATION[/ROULETTE], e.g. 2-8/32/1 "
+                     "or 2-8-24/32/1/0.03\n",
+                     item.c_str());
+        return 2;
+      }
+      level_specs.push_back(spec);
     }
   }
   if (device != "cpu" && device != "cuda") {
@@ -183,8 +288,9 @@ int main(int argc, char** argv) {
   size = cam.width;
   const difftrans::io::Mask mask = dr::object_mask(s, cam);
   const int threads = difftrans::ThreadPool::global().size();
-  std::fprintf(stderr, "equal_quality: %s (IoR %.3f) under %s, %d x %d, %d threads, device %s\n", mesh_name.c_str(),
-               ior, env_name.c_str(), cam.width, cam.height, threads, device.c_str());
+  std::fprintf(stderr, "equal_quality: %s (IoR %.3f) under %s, %d x %d (the object on %.1f %% of the pixels), %d threads, device %s\n",
+               mesh_name.c_str(), ior, env_name.c_str(), cam.width, cam.height,
+               100.0 * double(mask.count()) / double(cam.width * cam.height), threads, device.c_str());
 
   dr::PassOptions reference;
   reference.trace.max_depth = 16;
@@ -208,9 +314,18 @@ int main(int argc, char** argv) {
     return gpu ? gpu->render(cam, o, nullptr) : dr::render_image<float>(s, cam, o);
   };
   std::vector<Curve> curves;
+  // --only: the curves to run (the reference always runs: the others' speed-ups are against it)
+  const auto wanted = [&](const std::string& name) {
+    if (only_text.empty() || name == "reference") return true;
+    std::stringstream ss(only_text);
+    for (std::string item; std::getline(ss, item, ',');)
+      if (item == name || name.rfind(item + " ", 0) == 0) return true;
+    return false;
+  };
   // footprints: the host's footprint pass with these settings
   const auto uniform_curve = [&](const std::string& name, const std::string& what, const dr::PassOptions& base,
                                  const dr::FootprintSettings* footprints = nullptr) {
+    if (!wanted(name)) return;
     Curve c{name, what, {}};
     for (int n : {1, 2, 4, 8, 16}) {
       dr::PassOptions o = base;
@@ -224,12 +339,19 @@ int main(int argc, char** argv) {
       });
       pt.psnr = object_psnr(img, converged8, mask);
       pt.samples = double(n * n);
-      std::fprintf(stderr, "  %-14s %-8s %9.4f s  %6.2f dB\n", name.c_str(), pt.budget.c_str(), pt.seconds, pt.psnr);
+      pt.worst = error_profile(img, converged8, mask, 0.05);
+      pt.psnr_image = image_psnr(img, converged8, cam.width, cam.height);
+      std::fprintf(stderr,
+                   "  %-14s %-8s %9.4f s  %6.2f dB (image %6.2f)  (worst 5 %% of the object's pixels: %4.1f %% of the "
+                   "error; %6.2f dB without)\n",
+                   name.c_str(), pt.budget.c_str(), pt.seconds, pt.psnr, pt.psnr_image, 100.0 * pt.worst.worst_share,
+                   pt.worst.psnr_without_worst);
       c.points.push_back(pt);
     }
     curves.push_back(c);
   };
   const auto adaptive_curve = [&](const std::string& name, const std::string& what, const dr::PassOptions& base) {
+    if (!wanted(name)) return;
     Curve c{name, what, {}};
     for (float tol : {64.0f, 32.0f, 16.0f, 8.0f, 4.0f, 2.0f}) {
       dr::AdaptiveOptions a;
@@ -246,8 +368,39 @@ int main(int argc, char** argv) {
       pt.seconds = dt_bench::best_seconds([&] { img = dr::render_image_adaptive(s, cam, base, a, &st); });
       pt.psnr = object_psnr(img, converged8, mask);
       pt.samples = st.mean_samples;
-      std::fprintf(stderr, "  %-14s %-8s %9.4f s  %6.2f dB  %.1f samples per pixel\n", name.c_str(), pt.budget.c_str(),
-                   pt.seconds, pt.psnr, pt.samples);
+      pt.worst = error_profile(img, converged8, mask, 0.05);
+      pt.psnr_image = image_psnr(img, converged8, cam.width, cam.height);
+      std::fprintf(stderr, "  %-14s %-8s %9.4f s  %6.2f dB (image %6.2f)  %.1f samples per pixel\n", name.c_str(),
+                   pt.budget.c_str(), pt.seconds, pt.psnr, pt.psnr_image, pt.samples);
+      c.points.push_back(pt);
+    }
+    curves.push_back(c);
+  };
+
+  // levels of uniform grids (render/adaptive.hpp): one point per spec
+  const auto levels_curve = [&](const std::string& name, const std::string& what, const dr::PassOptions& base,
+                                const std::vector<LevelSpec>& points) {
+    if (!wanted(name)) return;
+    Curve c{name, what, {}};
+    for (const LevelSpec& q : points) {
+      dr::LevelOptions l;
+      l.per_axis = q.grids;
+      l.tolerance = q.tolerance;
+      l.dilate = q.dilate;
+      dr::LevelStats st;
+      std::vector<float> img;
+      Point pt;
+      pt.budget = q.text;
+      pt.seconds = dt_bench::best_seconds([&] { img = dr::render_image_levels(s, cam, base, l, &st); });
+      pt.psnr = object_psnr(img, converged8, mask);
+      pt.samples = st.mean_samples;
+      pt.worst = error_profile(img, converged8, mask, 0.05);
+      pt.psnr_image = image_psnr(img, converged8, cam.width, cam.height);
+      std::string traced;
+      for (std::int64_t t : st.traced)
+        traced += (traced.empty() ? "" : ", ") + std::to_string(t);
+      std::fprintf(stderr, "  %-14s %-18s %9.4f s  %6.2f dB (image %6.2f)  %.1f samples per pixel, pixels per level %s\n",
+                   name.c_str(), pt.budget.c_str(), pt.seconds, pt.psnr, pt.psnr_image, pt.samples, traced.c_str());
       c.points.push_back(pt);
     }
     curves.push_back(c);
@@ -277,6 +430,29 @@ int main(int argc, char** argv) {
       uniform_curve(name, std::string("as roulette, the environment averaged over each stratum's footprint (edges up to ") +
                               (name + 11) + " rad)", roulette, &f);
     }
+    // one curve per first grids, tolerance, dilation and roulette threshold; a point per last grid
+    std::vector<std::pair<std::string, std::vector<LevelSpec>>> groups;
+    for (const LevelSpec& spec : level_specs) {
+      std::string first;
+      for (std::size_t g = 0; g + 1 < spec.grids.size(); ++g) first += std::to_string(spec.grids[g]) + "-";
+      char name[96];
+      std::snprintf(name, sizeof name, "levels %sm/t%g/d%d/r%g", first.c_str(), double(spec.tolerance), spec.dilate,
+                    double(spec.roulette));
+      auto it = std::find_if(groups.begin(), groups.end(), [&](const auto& g) { return g.first == name; });
+      if (it == groups.end()) {
+        groups.push_back({name, {}});
+        it = groups.end() - 1;
+      }
+      it->second.push_back(spec);
+    }
+    for (const auto& [name, points] : groups) {
+      dr::PassOptions o = roulette;
+      o.trace.prune_throughput = points.front().roulette;
+      levels_curve(name,
+                   "roulette below the threshold (r), levels of uniform grids: every pixel on the first, the pixels "
+                   "whose samples spread by more than t levels and those within d of them on the next (m: the last)",
+                   o, points);
+    }
     adaptive_curve("adaptive", "as roulette, adaptive: rounds of 2x2 samples, 2 to 64 of them", roulette);
     adaptive_curve("adaptive+path", "as adaptive, the Fresnel tree for 2 interactions, one sampled branch beyond",
                    path);
@@ -293,7 +469,13 @@ int main(int argc, char** argv) {
     nlohmann::json jc;
     jc["description"] = c.description;
     for (const Point& pt : c.points)
-      jc["points"].push_back({{"budget", pt.budget}, {"seconds", pt.seconds}, {"psnr", pt.psnr}, {"samples", pt.samples}});
+      jc["points"].push_back({{"budget", pt.budget},
+                              {"seconds", pt.seconds},
+                              {"psnr", pt.psnr},
+                              {"psnr_image", pt.psnr_image},
+                              {"samples", pt.samples},
+                              {"worst5_error_share", pt.worst.worst_share},
+                              {"psnr_without_worst5", pt.worst.psnr_without_worst}});
     j["settings"][c.name] = jc;
   }
   std::printf("\n%-14s", "target dB");

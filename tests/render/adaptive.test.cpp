@@ -121,3 +121,89 @@ TEST_CASE("tolerance zero: every pixel whose rounds differ uses all of them") {
   CHECK(tight.pixels_at.back() > 16 * 16 / 4);  // the checker edges, the sphere (inside a cell, the rounds agree and stop)
   CHECK(tight.mean_samples > 2.0 * loose.mean_samples);
 }
+
+TEST_CASE("levels: one level is the uniform render") {
+  const dr::HostScene s = sun_scene(50.0f, true);
+  const auto cam = difftrans::scene::protocol_camera(Vec3f(0.2f, 0.3f, 1.0f), 20, 16);
+  dr::PassOptions opt;
+  opt.trace.max_depth = 8;
+  opt.samples_per_axis = 3;
+  const std::vector<float> uniform = dr::render_image<float>(s, cam, opt);
+  dr::LevelOptions l;
+  l.per_axis = {3};
+  dr::LevelStats st;
+  const std::vector<float> levels = dr::render_image_levels(s, cam, opt, l, &st);
+  REQUIRE(levels.size() == uniform.size());
+  for (std::size_t i = 0; i < uniform.size(); ++i) CHECK(levels[i] == doctest::Approx(uniform[i]).epsilon(1e-5));
+  CHECK(st.traced == std::vector<std::int64_t>{20 * 16});
+  CHECK(st.spread.empty());
+  CHECK(st.pass.rays == 20 * 16 * 9);
+}
+
+TEST_CASE("levels: the spread pixels and their neighbours go on; a pixel is the mean of all its samples") {
+  const dr::HostScene s = sun_scene(50.0f);
+  const auto cam = difftrans::scene::protocol_camera(Vec3f(0.2f, 0.3f, 1.0f), 24, 20);
+  dr::PassOptions opt;
+  opt.trace.max_depth = 8;
+  dr::LevelOptions l;
+  l.per_axis = {2, 4};
+  l.tolerance = 1.0f;
+  l.dilate = 0;
+  dr::LevelStats alone, around;
+  const std::vector<float> img = dr::render_image_levels(s, cam, opt, l, &alone);
+  l.dilate = 1;
+  dr::render_image_levels(s, cam, opt, l, &around);
+  REQUIRE(alone.traced.size() == 2);
+  CHECK(alone.traced[0] == 24 * 20);
+  CHECK(alone.pass.rays == alone.traced[0] * 4 + alone.traced[1] * 16);
+  // the object spreads, the plain map does not; without dilation exactly the
+  // spread pixels go on, with it their neighbours too
+  CHECK(alone.spread[0] > 0);
+  CHECK(alone.spread[0] < 24 * 20 / 2);
+  CHECK(alone.traced[1] == alone.spread[0]);
+  CHECK(around.spread[0] == alone.spread[0]);
+  CHECK(around.traced[1] > alone.traced[1]);
+  // a corner sees the plain map: the first level's value, the map's
+  for (int c = 0; c < 3; ++c) CHECK(img[std::size_t(c)] == doctest::Approx(0.3f).epsilon(1e-6));
+  // the centre pixel (on the object, spread) by hand: the mean of its 2 x 2
+  // and 4 x 4 samples
+  const ad::ParamSet params = s.params();
+  ad::ParamReader<float> reader(&params);
+  const std::int64_t pix = 10 * 24 + 12;
+  Vec3f sum(0.0f);
+  for (int n : {2, 4})
+    for (int k = 0; k < n * n; ++k) {
+      const auto ray = dr::pixel_sample(cam, n, pix, k);
+      sum += dr::trace<float>(s.view(false), s.accel(), reader, ray.origin, ray.direction, opt.trace);
+    }
+  for (int c = 0; c < 3; ++c)
+    CHECK(img[std::size_t(pix) * 3 + std::size_t(c)] == doctest::Approx(sum[c] / 20.0f).epsilon(1e-5));
+}
+
+TEST_CASE("levels: the refined image is nearer a converged render than its first level, for fewer samples than uniform") {
+  const dr::HostScene s = sun_scene(50.0f);
+  const auto cam = difftrans::scene::protocol_camera(Vec3f(0.2f, 0.3f, 1.0f), 32, 32);
+  dr::PassOptions opt;
+  opt.trace.max_depth = 8;
+  opt.samples_per_axis = 24;
+  const std::vector<float> converged = dr::render_image<float>(s, cam, opt);
+  const auto error = [&](const std::vector<float>& img) {
+    double e = 0.0;
+    for (std::size_t i = 0; i < img.size(); ++i) {
+      const double d = double(difftrans::io::tone_map_value(img[i])) -
+                       double(difftrans::io::tone_map_value(converged[i]));
+      e += d * d;
+    }
+    return e;
+  };
+  dr::LevelOptions l;
+  l.per_axis = {2};
+  const double first = error(dr::render_image_levels(s, cam, opt, l));
+  l.per_axis = {2, 8};
+  l.tolerance = 8.0f;
+  dr::LevelStats st;
+  const double refined = error(dr::render_image_levels(s, cam, opt, l, &st));
+  MESSAGE("squared error " << first << " -> " << refined << ", " << st.mean_samples << " samples per pixel");
+  CHECK(refined < 0.5 * first);
+  CHECK(st.mean_samples < 0.5 * 64.0);  // the plain map stops at 2 x 2
+}

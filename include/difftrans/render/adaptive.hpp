@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "difftrans/core/parallel.hpp"
@@ -151,6 +152,97 @@ inline std::vector<float> render_image_adaptive(const HostScene& s, const scene:
                                                 const AdaptiveOptions& a, AdaptiveStats* stats = nullptr) {
   std::vector<float> image;
   s.with_escape([&](const auto& escape) { image = render_image_adaptive_with(s, cam, opt, a, escape, stats); });
+  return image;
+}
+
+// Sampling in levels of uniform grids. Every pixel is traced on the first
+// level's n₀ × n₀ grid (pixel_sample's stratum centres: each level fully
+// stratified, unlike the rounds above). A pixel whose samples so far spread —
+// two standard errors of their mean (their sample variance over their count,
+// an overestimate for stratified grids, used as a ranking) move its
+// tone-mapped value by more than `tolerance` levels in some channel — is
+// traced on the next level's grid as well, and so are the pixels within
+// `dilate` of it (Chebyshev distance): a glint that one pixel's samples catch
+// is often in its neighbours too, where none of theirs did. A pixel is the
+// mean of all its samples. As with the rounds, a glint that no sample of a
+// pixel or its neighbours sees is not found, and a stopping rule read from
+// the samples leaves a small bias. Deterministic: the grids are fixed and
+// every pixel is summed in order.
+struct LevelOptions {
+  std::vector<int> per_axis{2, 8};  // each level's n × n grid
+  float tolerance = 32.0f;          // 8-bit levels
+  int dilate = 1;                   // pixels around a spread one refined too
+};
+
+struct LevelStats {
+  PassStats pass;                     // all levels
+  std::vector<std::int64_t> traced;   // pixels traced at each level
+  std::vector<std::int64_t> spread;   // pixels found spread after each level (but the last)
+  double mean_samples = 0.0;          // per pixel over the image
+};
+
+template <class Escape>
+std::vector<float> render_image_levels_with(const HostScene& s, const scene::Camera& cam, const PassOptions& opt,
+                                            const LevelOptions& l, const Escape& escape,
+                                            LevelStats* stats = nullptr) {
+  const std::int64_t pixels = std::int64_t(cam.width) * cam.height;
+  std::vector<detail::PixelRounds> acc(static_cast<std::size_t>(pixels));  // each sample a "round" of its own
+  const SceneView view = s.view(false);
+  const ad::ParamSet& params = s.params();
+  ThreadPool& pool = ThreadPool::global();
+  LevelStats st;
+  std::vector<std::int64_t> todo(static_cast<std::size_t>(pixels));
+  for (std::int64_t p = 0; p < pixels; ++p) todo[std::size_t(p)] = p;
+  const int d = std::max(0, l.dilate);
+  for (std::size_t level = 0; level < l.per_axis.size() && !todo.empty(); ++level) {
+    const int n = std::max(1, l.per_axis[level]);
+    st.traced.push_back(std::int64_t(todo.size()));
+    detail::StatsPerWorker per(pool.size());
+    pool.parallel_for(std::int64_t(todo.size()), level == 0 ? 64 : 4, [&](std::int64_t b, std::int64_t e, int w) {
+      ad::ParamReader<float> reader(&params);
+      PassStats& ps = per.per[std::size_t(w)];
+      for (std::int64_t q = b; q < e; ++q) {
+        const std::int64_t pix = todo[std::size_t(q)];
+        for (int k = 0; k < n * n; ++k) {
+          const scene::Ray r = pixel_sample(cam, n, pix, k);
+          acc[std::size_t(pix)].add(
+              Vec3<double>(trace<float>(view, s.accel(), reader, r.origin, r.direction, opt.trace, &ps.trace, escape)));
+          ++ps.rays;
+        }
+      }
+    });
+    st.pass.add(per.total());
+    if (level + 1 == l.per_axis.size()) break;
+    // the next level: the spread pixels of this one and their neighbours
+    std::vector<std::uint8_t> next(static_cast<std::size_t>(pixels), 0);
+    std::int64_t spread = 0;
+    for (const std::int64_t p : todo) {
+      if (!acc[std::size_t(p)].uncertain(l.tolerance)) continue;
+      ++spread;
+      const int x = int(p % cam.width), y = int(p / cam.width);
+      for (int yy = std::max(0, y - d); yy <= std::min(cam.height - 1, y + d); ++yy)
+        for (int xx = std::max(0, x - d); xx <= std::min(cam.width - 1, x + d); ++xx)
+          next[std::size_t(yy) * std::size_t(cam.width) + std::size_t(xx)] = 1;
+    }
+    st.spread.push_back(spread);
+    todo.clear();
+    for (std::int64_t p = 0; p < pixels; ++p)
+      if (next[std::size_t(p)]) todo.push_back(p);
+  }
+  std::vector<float> image(static_cast<std::size_t>(pixels) * 3, 0.0f);
+  for (std::int64_t p = 0; p < pixels; ++p) {
+    const detail::PixelRounds& a = acc[std::size_t(p)];
+    for (int c = 0; c < 3; ++c) image[std::size_t(p) * 3 + std::size_t(c)] = a.rounds ? float(a.sum[c] / a.rounds) : 0.0f;
+  }
+  st.mean_samples = pixels ? double(st.pass.rays) / double(pixels) : 0.0;
+  if (stats) *stats = std::move(st);
+  return image;
+}
+
+inline std::vector<float> render_image_levels(const HostScene& s, const scene::Camera& cam, const PassOptions& opt,
+                                              const LevelOptions& l, LevelStats* stats = nullptr) {
+  std::vector<float> image;
+  s.with_escape([&](const auto& escape) { image = render_image_levels_with(s, cam, opt, l, escape, stats); });
   return image;
 }
 
