@@ -237,10 +237,11 @@ int main(int argc, char** argv) {
              spec.roulette <= 1.0f;
         for (int g : spec.grids) ok = ok && g >= 1;
       }
+      ok = ok && spec.grids.front() >= 2;  // one sample per pixel shows no spread
       if (!ok) {
         std::fprintf(stderr,
-                     "equal_quality: --levels %s: expected GRIDS/TOLERANCE/DILATION[/ROULETTE], e.g. 2-8/32/1 "
-                     "or 2-8-24/32/1/0.03\n",
+                     "equal_quality: --levels %s: expected GRIDS/TOLERANCE/DILATION[/ROULETTE], the first grid at "
+                     "least 2, e.g. 2-8/32/1 or 2-8-24/32/1/0.03\n",
                      item.c_str());
         return 2;
       }
@@ -396,9 +397,11 @@ int main(int argc, char** argv) {
       pt.samples = st.mean_samples;
       pt.worst = error_profile(img, converged8, mask, 0.05);
       pt.psnr_image = image_psnr(img, converged8, cam.width, cam.height);
+      // per level: the pixels traced, and (but for the last) how many of them spread
       std::string traced;
-      for (std::int64_t t : st.traced)
-        traced += (traced.empty() ? "" : ", ") + std::to_string(t);
+      for (std::size_t k = 0; k < st.traced.size(); ++k)
+        traced += (k ? ", " : "") + std::to_string(st.traced[k]) +
+                  (k < st.spread.size() ? " (" + std::to_string(st.spread[k]) + " spread)" : std::string());
       std::fprintf(stderr, "  %-14s %-18s %9.4f s  %6.2f dB (image %6.2f)  %.1f samples per pixel, pixels per level %s\n",
                    name.c_str(), pt.budget.c_str(), pt.seconds, pt.psnr, pt.psnr_image, pt.samples, traced.c_str());
       c.points.push_back(pt);

@@ -470,25 +470,23 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
     j["sigma_search"] = {{"sigma", ev.sigma},
                          {"rendered_sum", rendered},
                          {"photographed_sum", {ev.photographed[0], ev.photographed[1], ev.photographed[2]}}};
-    // with the absorption chosen from the data, the search started the
-    // homogeneous candidate: said so where that candidate was not kept
-    const bool searched_for_candidate = s.absorption_kind == scene::AbsorptionKind::none;
-    if (searched_for_candidate) j["sigma_search"]["started"] = "the homogeneous candidate of the model choice, not kept";
+    // a clear object fits no σ: the search's σ (the homogeneous candidate's
+    // start in the model choice, or the unseen sky's search) is not the fit's
+    const bool sigma_unused = s.absorption_kind == scene::AbsorptionKind::none;
+    if (sigma_unused) j["sigma_search"]["sigma_used"] = false;
     const Vec3f k0 = stage.searched_sky();
     if (std::isfinite(k0.x)) {  // Stage2Config::unseen_sky: the search's factor, per channel found with σ or not
       j["sigma_search"]["sky_start"] = {k0.x, k0.y, k0.z};
       j["sigma_search"]["sky_found_with_sigma"] = {ev.sky_joint[0], ev.sky_joint[1], ev.sky_joint[2]};
       progress("materials: starting factor of the unseen sky " + fixed(k0.x, 3) + ", " + fixed(k0.y, 3) + ", " +
                fixed(k0.z, 3) + " (with the absorption from two halves of the pixels" +
-               (ev.sky_joint[0] && ev.sky_joint[1] && ev.sky_joint[2] ? "" : "; not in every channel") +
-               (searched_for_candidate ? "; searched for the homogeneous candidate)" : ")"));
+               (ev.sky_joint[0] && ev.sky_joint[1] && ev.sky_joint[2] ? ")" : "; not in every channel)"));
     }
-    progress(std::string("materials: ") +
-             (searched_for_candidate ? "the homogeneous candidate (not kept) started at absorption "
-                                     : "starting absorption ") +
+    progress(std::string("materials: ") + (sigma_unused ? "the absorption search found " : "starting absorption ") +
              fixed(s0.x, 3) + ", " + fixed(s0.y, 3) + ", " + fixed(s0.z, 3) +
              " per unit length (the rendered light matched to the photographs' over " +
-             std::to_string(ev.sigma.size()) + " grey values)");
+             std::to_string(ev.sigma.size()) + " grey values)" +
+             (sigma_unused ? "; not used: the object was found clear" : ""));
   }
 
   // outputs: material, mesh, loss curve

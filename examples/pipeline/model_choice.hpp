@@ -75,9 +75,11 @@ inline double mean_finite(const std::vector<double>& v) {
 // and at the other's, and judged by the lower mean. The shared parameter's
 // fitting noise is no merit of either model; judged at their own values only,
 // a clear object took a faint tint because its homogeneous fit had happened
-// to land nearer the true IoR. True: judge this candidate by `at_other`.
+// to land nearer the true IoR. True: judge this candidate by `at_other`
+// (also when no loss at its own value is finite and some at the other's are).
 inline bool judged_at_other(const std::vector<double>& at_own, const std::vector<double>& at_other) {
-  return mean_finite(at_other) < mean_finite(at_own);
+  const double own = mean_finite(at_own), other = mean_finite(at_other);
+  return std::isfinite(other) && (!std::isfinite(own) || other < own);
 }
 
 }  // namespace difftrans::pipeline

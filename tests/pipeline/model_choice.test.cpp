@@ -67,4 +67,6 @@ TEST_CASE("two candidates sharing a fitted parameter: each judged at the better 
   CHECK(std::isnan(pipeline::mean_finite({nan, nan})));
   CHECK_FALSE(pipeline::judged_at_other({1.0, 2.0}, {nan, nan}));
   CHECK(pipeline::judged_at_other({nan, 2.0}, {1.0, nan}));
+  CHECK(pipeline::judged_at_other({nan, nan}, {3.0, nan}));  // nothing to judge at its own value
+  CHECK_FALSE(pipeline::judged_at_other({nan}, {nan}));
 }

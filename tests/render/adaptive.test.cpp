@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <stdexcept>
 #include <vector>
 
 #include "difftrans/render/adaptive.hpp"
@@ -178,6 +179,21 @@ TEST_CASE("levels: the spread pixels and their neighbours go on; a pixel is the 
     }
   for (int c = 0; c < 3; ++c)
     CHECK(img[std::size_t(pix) * 3 + std::size_t(c)] == doctest::Approx(sum[c] / 20.0f).epsilon(1e-5));
+  // 2 then 6: the 6 x 6 grid holds the 2 x 2 grid's four centres, which are
+  // not traced twice: 32 new samples, the pixel the mean of 36
+  l.per_axis = {2, 6};
+  dr::LevelStats odd;
+  const std::vector<float> img6 = dr::render_image_levels(s, cam, opt, l, &odd);
+  CHECK(odd.pass.rays == odd.traced[0] * 4 + odd.traced[1] * 32);
+  Vec3f sum6(0.0f);
+  for (int k = 0; k < 36; ++k) {
+    const auto ray = dr::pixel_sample(cam, 6, pix, k);
+    sum6 += dr::trace<float>(s.view(false), s.accel(), reader, ray.origin, ray.direction, opt.trace);
+  }
+  for (int c = 0; c < 3; ++c)
+    CHECK(img6[std::size_t(pix) * 3 + std::size_t(c)] == doctest::Approx(sum6[c] / 36.0f).epsilon(1e-5));
+  l.per_axis.clear();
+  CHECK_THROWS_AS(dr::render_image_levels(s, cam, opt, l), std::invalid_argument);
 }
 
 TEST_CASE("levels: the refined image is nearer a converged render than its first level, for fewer samples than uniform") {

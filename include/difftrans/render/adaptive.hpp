@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <stdexcept>
 #include <utility>
 #include <vector>
 
@@ -164,7 +165,10 @@ inline std::vector<float> render_image_adaptive(const HostScene& s, const scene:
 // traced on the next level's grid as well, and so are the pixels within
 // `dilate` of it (Chebyshev distance): a glint that one pixel's samples catch
 // is often in its neighbours too, where none of theirs did. A pixel is the
-// mean of all its samples. As with the rounds, a glint that no sample of a
+// mean of all its samples; a sample that an earlier grid already traced (the
+// same stratum centre: an odd ratio of the two grids, as 2 and 6) is not
+// traced again. A first grid of 1 × 1 cannot show a spread: every pixel goes
+// on. As with the rounds, a glint that no sample of a
 // pixel or its neighbours sees is not found, and a stopping rule read from
 // the samples leaves a small bias. Deterministic: the grids are fixed and
 // every pixel is summed in order.
@@ -194,6 +198,20 @@ std::vector<float> render_image_levels_with(const HostScene& s, const scene::Cam
   std::vector<std::int64_t> todo(static_cast<std::size_t>(pixels));
   for (std::int64_t p = 0; p < pixels; ++p) todo[std::size_t(p)] = p;
   const int d = std::max(0, l.dilate);
+  if (l.per_axis.empty()) throw std::invalid_argument("render_image_levels: no grid given");
+  // whether sample i of an n-grid's axis has the centre of a sample of an earlier grid g:
+  // (i + 1/2) / n = (j + 1/2) / g, i.e. (2i + 1) g / n an odd integer
+  const auto on_earlier_grid = [&](std::size_t level, int n, int i, int j) {
+    for (std::size_t e = 0; e < level; ++e) {
+      const std::int64_t g = std::max(1, l.per_axis[e]);
+      const auto shared = [&](int k) {
+        const std::int64_t x = (2 * std::int64_t(k) + 1) * g;
+        return x % n == 0 && (x / n) % 2 == 1;
+      };
+      if (shared(i) && shared(j)) return true;
+    }
+    return false;
+  };
   for (std::size_t level = 0; level < l.per_axis.size() && !todo.empty(); ++level) {
     const int n = std::max(1, l.per_axis[level]);
     st.traced.push_back(std::int64_t(todo.size()));
@@ -204,6 +222,7 @@ std::vector<float> render_image_levels_with(const HostScene& s, const scene::Cam
       for (std::int64_t q = b; q < e; ++q) {
         const std::int64_t pix = todo[std::size_t(q)];
         for (int k = 0; k < n * n; ++k) {
+          if (on_earlier_grid(level, n, k % n, k / n)) continue;
           const scene::Ray r = pixel_sample(cam, n, pix, k);
           acc[std::size_t(pix)].add(
               Vec3<double>(trace<float>(view, s.accel(), reader, r.origin, r.direction, opt.trace, &ps.trace, escape)));
