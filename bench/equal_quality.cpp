@@ -97,27 +97,13 @@ struct Curve {
   std::vector<Point> points;
 };
 
-// PSNR of the 8-bit tone-mapped image over the object's pixels against the
-// tone-mapped converged render
-double object_psnr(const std::vector<float>& img, const std::vector<std::uint8_t>& converged8,
-                   const difftrans::io::Mask& mask) {
-  difftrans::io::Image image(mask.width, mask.height);
-  image.rgb = img;
-  const std::vector<std::uint8_t> img8 = difftrans::io::tone_map(image);
-  return difftrans::metrics::psnr({img8.data(), mask.width, mask.height}, {converged8.data(), mask.width, mask.height},
-                                  &mask);
-}
-
 // Where the error of an image lies: the share of the squared tone-mapped
 // error (all channels of a pixel together) that the worst `fraction` of the
 // object's pixels carry, and the PSNR the image would have were those pixels
 // exact. A large share says that more samples in a few pixels could buy what
 // more samples everywhere buy (an upper bound: it knows the converged image).
-ErrorProfile error_profile(const std::vector<float>& img, const std::vector<std::uint8_t>& converged8,
+ErrorProfile error_profile(const std::vector<std::uint8_t>& img8, const std::vector<std::uint8_t>& converged8,
                            const difftrans::io::Mask& mask, double fraction) {
-  difftrans::io::Image image(mask.width, mask.height);
-  image.rgb = img;
-  const std::vector<std::uint8_t> img8 = difftrans::io::tone_map(image);
   std::vector<double> err;
   for (std::size_t p = 0; p < mask.inside.size(); ++p) {
     if (!mask.inside[p]) continue;
@@ -141,12 +127,20 @@ ErrorProfile error_profile(const std::vector<float>& img, const std::vector<std:
   return r;
 }
 
-// PSNR of the whole tone-mapped image (background too) against the converged one
-double image_psnr(const std::vector<float>& img, const std::vector<std::uint8_t>& converged8, int width, int height) {
-  difftrans::io::Image image(width, height);
+// A point's quality, from one tone-mapped copy of its image: the PSNR over the
+// object's pixels against the tone-mapped converged render, where that error
+// lies (the worst 5 % of the object's pixels), and the whole image's PSNR
+// (background too)
+void score(Point& pt, const std::vector<float>& img, const std::vector<std::uint8_t>& converged8,
+           const difftrans::io::Mask& mask) {
+  difftrans::io::Image image(mask.width, mask.height);
   image.rgb = img;
   const std::vector<std::uint8_t> img8 = difftrans::io::tone_map(image);
-  return difftrans::metrics::psnr({img8.data(), width, height}, {converged8.data(), width, height});
+  const difftrans::metrics::Image8View mine{img8.data(), mask.width, mask.height},
+      converged{converged8.data(), mask.width, mask.height};
+  pt.psnr = difftrans::metrics::psnr(mine, converged, &mask);
+  pt.worst = error_profile(img8, converged8, mask, 0.05);
+  pt.psnr_image = difftrans::metrics::psnr(mine, converged);
 }
 
 // The time a curve needs to reach `target` dB: linear in log time between the
@@ -191,8 +185,25 @@ int main(int argc, char** argv) {
   std::string levels_text = "2-6/32/1,2-8/32/1,2-10/32/1,2-8-16/64/1,2-8-32/64/1,4-16-48/64/1";
   float ior = 1.472f;
   int size = 128, view = 0;
-  for (int i = 1; i + 1 < argc; i += 2) {
+  const auto usage = [](std::FILE* to) {
+    std::fprintf(to,
+                 "usage: equal_quality [--mesh spot] [--ior 1.472] "
+                 "[--env venice_sunset_1k.hdr] [--size 128] [--targets 23,28,33] [--scene DIR] [--view K] "
+                 "[--roulette T1,T2] [--footprint-angles A1,A2] [--converged N] [--only C1,C2] [--levels G/T/D[/R],...] "
+                 "[--device cpu|cuda] [--out DIR]\n"
+                 "(the settings and the options: the comment at the top of bench/equal_quality.cpp)\n");
+  };
+  for (int i = 1; i < argc; i += 2) {
     const std::string a = argv[i];
+    if (a == "--help" || a == "-h") {
+      usage(stdout);
+      return 0;
+    }
+    if (i + 1 == argc) {  // every option takes a value
+      std::fprintf(stderr, "equal_quality: %s needs a value\n", a.c_str());
+      usage(stderr);
+      return 2;
+    }
     if (a == "--mesh") mesh_name = argv[i + 1];
     else if (a == "--ior") ior = float(std::atof(argv[i + 1]));
     else if (a == "--env") env_name = argv[i + 1];
@@ -208,13 +219,8 @@ int main(int argc, char** argv) {
     else if (a == "--only") only_text = argv[i + 1];
     else if (a == "--levels") levels_text = argv[i + 1];
     else {
-      std::fprintf(stderr,
-                   "equal_quality: unknown option %s\nusage: equal_quality [--mesh spot] [--ior 1.472] "
-                   "[--env venice_sunset_1k.hdr] [--size 128] [--targets 23,28,33] [--scene DIR] [--view K] "
-                   "[--roulette T1,T2] [--footprint-angles A1,A2] [--converged N] [--only C1,C2] [--levels G/T/D[/R],...] "
-                   "[--device cpu|cuda] "
-                   "[--out DIR]\n",
-                   a.c_str());
+      std::fprintf(stderr, "equal_quality: unknown option %s\n", a.c_str());
+      usage(stderr);
       return 2;
     }
   }
@@ -338,10 +344,8 @@ int main(int argc, char** argv) {
       pt.seconds = dt_bench::best_seconds([&] {
         img = footprints ? dr::render_image_footprints(s, cam, o, *footprints) : render_view(o);
       });
-      pt.psnr = object_psnr(img, converged8, mask);
+      score(pt, img, converged8, mask);
       pt.samples = double(n * n);
-      pt.worst = error_profile(img, converged8, mask, 0.05);
-      pt.psnr_image = image_psnr(img, converged8, cam.width, cam.height);
       std::fprintf(stderr,
                    "  %-14s %-8s %9.4f s  %6.2f dB (image %6.2f)  (worst 5 %% of the object's pixels: %4.1f %% of the "
                    "error; %6.2f dB without)\n",
@@ -367,10 +371,8 @@ int main(int argc, char** argv) {
       std::snprintf(buf, sizeof buf, "tol %g", double(tol));
       pt.budget = buf;
       pt.seconds = dt_bench::best_seconds([&] { img = dr::render_image_adaptive(s, cam, base, a, &st); });
-      pt.psnr = object_psnr(img, converged8, mask);
+      score(pt, img, converged8, mask);
       pt.samples = st.mean_samples;
-      pt.worst = error_profile(img, converged8, mask, 0.05);
-      pt.psnr_image = image_psnr(img, converged8, cam.width, cam.height);
       std::fprintf(stderr, "  %-14s %-8s %9.4f s  %6.2f dB (image %6.2f)  %.1f samples per pixel\n", name.c_str(),
                    pt.budget.c_str(), pt.seconds, pt.psnr, pt.psnr_image, pt.samples);
       c.points.push_back(pt);
@@ -393,10 +395,8 @@ int main(int argc, char** argv) {
       Point pt;
       pt.budget = q.text;
       pt.seconds = dt_bench::best_seconds([&] { img = dr::render_image_levels(s, cam, base, l, &st); });
-      pt.psnr = object_psnr(img, converged8, mask);
+      score(pt, img, converged8, mask);
       pt.samples = st.mean_samples;
-      pt.worst = error_profile(img, converged8, mask, 0.05);
-      pt.psnr_image = image_psnr(img, converged8, cam.width, cam.height);
       // per level: the pixels traced, and (but for the last) how many of them spread
       std::string traced;
       for (std::size_t k = 0; k < st.traced.size(); ++k)

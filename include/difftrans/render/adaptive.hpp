@@ -195,34 +195,43 @@ std::vector<float> render_image_levels_with(const HostScene& s, const scene::Cam
   const ad::ParamSet& params = s.params();
   ThreadPool& pool = ThreadPool::global();
   LevelStats st;
-  std::vector<std::int64_t> todo(static_cast<std::size_t>(pixels));
-  for (std::int64_t p = 0; p < pixels; ++p) todo[std::size_t(p)] = p;
+  // the pixels traced at the current level: every pixel at the first
+  std::vector<std::int64_t> level_pixels(static_cast<std::size_t>(pixels));
+  for (std::int64_t p = 0; p < pixels; ++p) level_pixels[std::size_t(p)] = p;
   const int d = std::max(0, l.dilate);
   if (l.per_axis.empty()) throw std::invalid_argument("render_image_levels: no grid given");
-  // whether sample i of an n-grid's axis has the centre of a sample of an earlier grid g:
-  // (i + 1/2) / n = (j + 1/2) / g, i.e. (2i + 1) g / n an odd integer
-  const auto on_earlier_grid = [&](std::size_t level, int n, int i, int j) {
+  // which samples of a level's n x n grid have the centre of a sample of an earlier
+  // grid g, so are traced already: along an axis, (i + 1/2) / n = (j + 1/2) / g,
+  // i.e. (2i + 1) g / n an odd integer; the same for every pixel of the level
+  const auto traced_before = [&](std::size_t level, int n) {
+    std::vector<std::uint8_t> on_axis(static_cast<std::size_t>(n) * level, 0);  // [earlier grid][i]
     for (std::size_t e = 0; e < level; ++e) {
       const std::int64_t g = std::max(1, l.per_axis[e]);
-      const auto shared = [&](int k) {
-        const std::int64_t x = (2 * std::int64_t(k) + 1) * g;
-        return x % n == 0 && (x / n) % 2 == 1;
-      };
-      if (shared(i) && shared(j)) return true;
+      for (int i = 0; i < n; ++i) {
+        const std::int64_t x = (2 * std::int64_t(i) + 1) * g;
+        on_axis[e * std::size_t(n) + std::size_t(i)] = x % n == 0 && (x / n) % 2 == 1;
+      }
     }
-    return false;
+    std::vector<std::uint8_t> skip(static_cast<std::size_t>(n) * std::size_t(n), 0);  // [k], k = i + n j
+    for (std::size_t e = 0; e < level; ++e)
+      for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i)
+          if (on_axis[e * std::size_t(n) + std::size_t(i)] && on_axis[e * std::size_t(n) + std::size_t(j)])
+            skip[std::size_t(i) + std::size_t(n) * std::size_t(j)] = 1;
+    return skip;
   };
-  for (std::size_t level = 0; level < l.per_axis.size() && !todo.empty(); ++level) {
+  for (std::size_t level = 0; level < l.per_axis.size() && !level_pixels.empty(); ++level) {
     const int n = std::max(1, l.per_axis[level]);
-    st.traced.push_back(std::int64_t(todo.size()));
+    const std::vector<std::uint8_t> skip = traced_before(level, n);
+    st.traced.push_back(std::int64_t(level_pixels.size()));
     detail::StatsPerWorker per(pool.size());
-    pool.parallel_for(std::int64_t(todo.size()), level == 0 ? 64 : 4, [&](std::int64_t b, std::int64_t e, int w) {
+    pool.parallel_for(std::int64_t(level_pixels.size()), level == 0 ? 64 : 4, [&](std::int64_t b, std::int64_t e, int w) {
       ad::ParamReader<float> reader(&params);
       PassStats& ps = per.per[std::size_t(w)];
       for (std::int64_t q = b; q < e; ++q) {
-        const std::int64_t pix = todo[std::size_t(q)];
+        const std::int64_t pix = level_pixels[std::size_t(q)];
         for (int k = 0; k < n * n; ++k) {
-          if (on_earlier_grid(level, n, k % n, k / n)) continue;
+          if (skip[std::size_t(k)]) continue;
           const scene::Ray r = pixel_sample(cam, n, pix, k);
           acc[std::size_t(pix)].add(
               Vec3<double>(trace<float>(view, s.accel(), reader, r.origin, r.direction, opt.trace, &ps.trace, escape)));
@@ -235,7 +244,7 @@ std::vector<float> render_image_levels_with(const HostScene& s, const scene::Cam
     // the next level: the spread pixels of this one and their neighbours
     std::vector<std::uint8_t> next(static_cast<std::size_t>(pixels), 0);
     std::int64_t spread = 0;
-    for (const std::int64_t p : todo) {
+    for (const std::int64_t p : level_pixels) {
       if (!acc[std::size_t(p)].uncertain(l.tolerance)) continue;
       ++spread;
       const int x = int(p % cam.width), y = int(p / cam.width);
@@ -244,9 +253,9 @@ std::vector<float> render_image_levels_with(const HostScene& s, const scene::Cam
           next[std::size_t(yy) * std::size_t(cam.width) + std::size_t(xx)] = 1;
     }
     st.spread.push_back(spread);
-    todo.clear();
+    level_pixels.clear();
     for (std::int64_t p = 0; p < pixels; ++p)
-      if (next[std::size_t(p)]) todo.push_back(p);
+      if (next[std::size_t(p)]) level_pixels.push_back(p);
   }
   std::vector<float> image(static_cast<std::size_t>(pixels) * 3, 0.0f);
   for (std::int64_t p = 0; p < pixels; ++p) {
