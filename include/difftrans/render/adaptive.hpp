@@ -200,29 +200,24 @@ std::vector<float> render_image_levels_with(const HostScene& s, const scene::Cam
   for (std::int64_t p = 0; p < pixels; ++p) level_pixels[std::size_t(p)] = p;
   const int d = std::max(0, l.dilate);
   if (l.per_axis.empty()) throw std::invalid_argument("render_image_levels: no grid given");
-  // which samples of a level's n x n grid have the centre of a sample of an earlier
-  // grid g, so are traced already: along an axis, (i + 1/2) / n = (j + 1/2) / g,
-  // i.e. (2i + 1) g / n an odd integer; the same for every pixel of the level
-  const auto traced_before = [&](std::size_t level, int n) {
-    std::vector<std::uint8_t> on_axis(static_cast<std::size_t>(n) * level, 0);  // [earlier grid][i]
+  // whether sample i of an n-grid's axis has the centre of a sample of an earlier grid g:
+  // (i + 1/2) / n = (j + 1/2) / g, i.e. (2i + 1) g / n an odd integer
+  const auto on_earlier_grid = [&](std::size_t level, int n, int i, int j) {
     for (std::size_t e = 0; e < level; ++e) {
       const std::int64_t g = std::max(1, l.per_axis[e]);
-      for (int i = 0; i < n; ++i) {
-        const std::int64_t x = (2 * std::int64_t(i) + 1) * g;
-        on_axis[e * std::size_t(n) + std::size_t(i)] = x % n == 0 && (x / n) % 2 == 1;
-      }
+      const auto shared = [&](int k) {
+        const std::int64_t x = (2 * std::int64_t(k) + 1) * g;
+        return x % n == 0 && (x / n) % 2 == 1;
+      };
+      if (shared(i) && shared(j)) return true;
     }
-    std::vector<std::uint8_t> skip(static_cast<std::size_t>(n) * std::size_t(n), 0);  // [k], k = i + n j
-    for (std::size_t e = 0; e < level; ++e)
-      for (int j = 0; j < n; ++j)
-        for (int i = 0; i < n; ++i)
-          if (on_axis[e * std::size_t(n) + std::size_t(i)] && on_axis[e * std::size_t(n) + std::size_t(j)])
-            skip[std::size_t(i) + std::size_t(n) * std::size_t(j)] = 1;
-    return skip;
+    return false;
   };
   for (std::size_t level = 0; level < l.per_axis.size() && !level_pixels.empty(); ++level) {
     const int n = std::max(1, l.per_axis[level]);
-    const std::vector<std::uint8_t> skip = traced_before(level, n);
+    // the samples an earlier grid traced: the same for every pixel of the level
+    std::vector<std::uint8_t> skip(static_cast<std::size_t>(n) * std::size_t(n));
+    for (int k = 0; k < n * n; ++k) skip[std::size_t(k)] = on_earlier_grid(level, n, k % n, k / n);
     st.traced.push_back(std::int64_t(level_pixels.size()));
     detail::StatsPerWorker per(pool.size());
     pool.parallel_for(std::int64_t(level_pixels.size()), level == 0 ? 64 : 4, [&](std::int64_t b, std::int64_t e, int w) {
