@@ -34,7 +34,7 @@
 //                               footprint edges (radians; default 0.3)
 //        --levels G/T/D[/R],... levels points: grids G (2-8: 2 x 2, then
 //                               8 x 8; 2-8-24: three levels), tolerance T
-//                               levels, dilation D, roulette below R (0.01);
+//                               levels (0 < T < 255), dilation D, roulette below R (0.01);
 //                               one curve per all but the last grid and
 //                               T/D/R (default 2-m/32/1, m = 6, 8, 10;
 //                               2-8-m/64/1, m = 16, 32; 4-16-48/64/1)
@@ -239,15 +239,17 @@ int main(int argc, char** argv) {
         spec.tolerance = float(std::atof(parts[1].c_str()));
         spec.dilate = std::atoi(parts[2].c_str());
         if (parts.size() == 4) spec.roulette = float(std::atof(parts[3].c_str()));
-        ok = !spec.grids.empty() && spec.dilate >= 0 && spec.tolerance > 0.0f && spec.roulette >= 0.0f &&
-             spec.roulette <= 1.0f;
+        // two 8-bit values differ by 255 at most: a tolerance of 255 or more
+        // would mark no pixel, and the run would be its first grid alone
+        ok = !spec.grids.empty() && spec.dilate >= 0 && spec.tolerance > 0.0f && spec.tolerance < 255.0f &&
+             spec.roulette >= 0.0f && spec.roulette <= 1.0f;
         for (int g : spec.grids) ok = ok && g >= 1;
       }
       ok = ok && spec.grids.front() >= 2;  // one sample per pixel shows no spread
       if (!ok) {
         std::fprintf(stderr,
                      "equal_quality: --levels %s: expected GRIDS/TOLERANCE/DILATION[/ROULETTE], the first grid at "
-                     "least 2, e.g. 2-8/32/1 or 2-8-24/32/1/0.03\n",
+                     "least 2, the tolerance above 0 and below 255 levels, e.g. 2-8/32/1 or 2-8-24/32/1/0.03\n",
                      item.c_str());
         return 2;
       }

@@ -174,7 +174,7 @@ inline std::vector<float> render_image_adaptive(const HostScene& s, const scene:
 // every pixel is summed in order.
 struct LevelOptions {
   std::vector<int> per_axis{2, 8};  // each level's n × n grid
-  float tolerance = 32.0f;          // 8-bit levels
+  float tolerance = 32.0f;          // 8-bit levels; 255 or more marks no pixel (the first grid alone)
   int dilate = 1;                   // pixels around a spread one refined too
 };
 
