@@ -15,7 +15,9 @@
 // Targets: primal at depth 4 within 2x Embree; gradient within 4x primal.
 // horse/absorption/*: primal, gradient and recomputed gradient at stage 2's
 // training settings for each absorption model (none, homogeneous, grids of 4³
-// and 16³), as ratios to the clear primal. */d16/*: depth 16 through clear
+// and 16³), as ratios to the clear primal; for the grids also primal_untabled
+// and recomputed_untabled, σ evaluated at each read instead of read from the
+// scene's softplus table (what the table saves). */d16/*: depth 16 through clear
 // glass, the tape of a camera ray (mean and largest) with the whole tape,
 // streamed (render::trace_streamed) and recomputed (render::trace_recomputed:
 // half a segment's tape at a time), for the whole tree, roulette below 0.01
@@ -143,12 +145,16 @@ void accel_alone(benchmark::State& state, std::string name, int depth) {
   state.counters["segments_per_second"] = benchmark::Counter(double(segs.size()) * double(state.iterations()), benchmark::Counter::kIsRate);
 }
 
+// records false: the hits read the mesh's arrays, not its triangle records;
+// softplus_table false: σ = softplus(raw) evaluated at every grid corner a
+// sample reads, not read from the scene's table (AbsorptionField::softplus_table).
 void primal(benchmark::State& state, std::string name, dr::TraceSettings ts, Absorption absorption,
-            bool records) {
+            bool records, bool softplus_table = true) {
   Workload& w = workload(name);
   set_absorption(*w.scene, absorption);
   dr::SceneView view = w.scene->view(false);
   if (!records) view.mesh.records = nullptr;
+  if (!softplus_table) view.absorption.softplus_table = nullptr;
   const ad::ParamSet params = w.scene->params();
   ad::ParamReader<float> reader(&params);
   for (auto _ : state)
@@ -165,11 +171,12 @@ void primal(benchmark::State& state, std::string name, dr::TraceSettings ts, Abs
 enum class TapeMode { whole, streamed, recomputed };
 
 void gradient(benchmark::State& state, std::string name, dr::TraceSettings ts, Absorption absorption,
-              TapeMode mode) {
+              TapeMode mode, bool softplus_table = true) {
   using V = ad::Var<float>;
   Workload& w = workload(name);
   set_absorption(*w.scene, absorption);
-  const dr::SceneView view = w.scene->view(true, true);
+  dr::SceneView view = w.scene->view(true, true);
+  if (!softplus_table) view.absorption.softplus_table = nullptr;
   ad::ParamSet params = w.scene->params();
   dr::SceneGradient grad(*w.scene);
   grad.attach(params);
@@ -273,6 +280,14 @@ int main(int argc, char** argv) {
     benchmark::RegisterBenchmark((prefix + "recomputed").c_str(), gradient, "horse", training_settings(), model,
                                  TapeMode::recomputed)
         ->Unit(benchmark::kMillisecond);
+    if (model == Absorption::grid4 || model == Absorption::grid16) {  // what the softplus table saves a grid
+      benchmark::RegisterBenchmark((prefix + "primal_untabled").c_str(), primal, "horse", training_settings(), model,
+                                   true, false)
+          ->Unit(benchmark::kMillisecond);
+      benchmark::RegisterBenchmark((prefix + "recomputed_untabled").c_str(), gradient, "horse", training_settings(),
+                                   model, TapeMode::recomputed, false)
+          ->Unit(benchmark::kMillisecond);
+    }
   }
   groups.emplace_back("horse/absorption/", "horse/absorption/none/primal");
   // The tape of one camera ray at depth 16 (counters tape_bytes_per_ray and

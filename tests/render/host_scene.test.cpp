@@ -3,6 +3,11 @@
 #include "support/ad_check.hpp"
 #include "support/shapes.hpp"
 
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
 #include "difftrans/render/host_scene.hpp"
 
 using namespace dt_test;
@@ -42,4 +47,23 @@ TEST_CASE("the BVH follows the positions") {
   s.positions_changed();
   CHECK(s.accel().intersect(Vec3f(0, 0, 3), Vec3f(0, 0, -1)).t == doctest::Approx(2.0f));
   CHECK(s.mesh.vertex_normals[1] == doctest::Approx(-1.0f / std::sqrt(3.0f)));
+}
+
+TEST_CASE("HostScene::view makes the softplus table again when the raw absorption changes in place") {
+  dr::HostScene s;
+  const Vec3i res(3, 4, 2);
+  std::vector<float> raw(std::size_t(res.x * res.y * res.z * 3));
+  for (std::size_t i = 0; i < raw.size(); ++i) raw[i] = -1.0f + 0.1f * float(i);
+  s.set_grid_absorption(res, Vec3f(-0.5f), Vec3f(0.5f), raw);
+  const auto read = [&](std::int32_t i) {
+    const dr::SceneView v = s.view(false);
+    REQUIRE(v.absorption.softplus_table != nullptr);
+    ad::ParamReader<float> r(nullptr);  // the grid's buffer is frozen in a plain view
+    return scene::detail::sigma_of_parameter<float>(r, v.absorption, i);
+  };
+  CHECK(read(7) == ad::softplus(s.absorption_raw[7]));
+  s.absorption_raw[7] += 1.5f;  // as an optimizer step writes it
+  CHECK(read(7) == ad::softplus(s.absorption_raw[7]));
+  s.set_homogeneous_absorption(Vec3f(0.25f, 1.0f, 3.0f));  // fewer values
+  CHECK(std::abs(read(2) - 3.0f) < 1e-5f);
 }

@@ -5,7 +5,10 @@
 // to the raw grid parameters and the segment ends; forward against reverse.
 #include "scene/scene_check.hpp"
 
+#include <cstdint>
+#include <cstring>
 #include <utility>
+#include <vector>
 
 using namespace dt_test;
 using scene::AbsorptionField;
@@ -458,4 +461,82 @@ TEST_CASE("frozen parameters cost no leaves") {
   CHECK(rev.size() == 0);
   tape.backward(T.x);
   CHECK(tape.adjoint(a.x) != 0.0f);  // still differentiable with respect to the ends
+}
+
+// AbsorptionField::softplus_table: a float pass reads sigma from the table
+// instead of evaluating softplus; the values, tangents and gradients must be
+// the same bits, and a pass in double must not read the float table.
+TEST_CASE("the softplus table changes no bit of a float pass") {
+  // raw values across softplus's branches: far negative, near 0, far positive
+  std::vector<float> raw = to_float(uniform_values(std::size_t(kRes.x * kRes.y * kRes.z * 3), -25.0, 25.0, 91));
+  raw[0] = 0.0f;
+  raw[1] = -1e-7f;
+  raw[2] = 40.0f;
+  std::vector<float> table(2 * raw.size());
+  scene::fill_softplus_table(raw.data(), raw.size(), table.data());
+  const auto bits = [](float x) {
+    std::uint32_t u;
+    std::memcpy(&u, &x, sizeof u);
+    return u;
+  };
+  for (const bool homogeneous : {false, true}) {
+    const AbsorptionField plain_field =
+        homogeneous ? scene::homogeneous_absorption(raw.data(), 1) : scene::grid_absorption(raw.data(), kRes, kLo, kHi, 1);
+    AbsorptionField table_field = plain_field;
+    table_field.softplus_table = table.data();
+    for (int samples : {0, 4}) {
+      CAPTURE(homogeneous);
+      CAPTURE(samples);
+      const AbsorptionIntegration q{samples, 0.37f};
+      for (const auto& [a, b] : random_segments(40, 17, 0.8)) {
+        ad::ParamSet set;
+        set.buffers[1].values = raw.data();
+        set.buffers[1].size = std::int32_t(raw.size());
+        // float
+        ad::ParamReader<float> plain(&set);
+        const Vec3f d0 = depth<float>(plain, plain_field, a, b, q), d1 = depth<float>(plain, table_field, a, b, q);
+        // forward mode along two tangents
+        std::vector<float> t0 = to_float(uniform_values(raw.size(), -1.0, 1.0, 5)),
+                           t1 = to_float(uniform_values(raw.size(), -1.0, 1.0, 6));
+        set.buffers[1].tangents[0] = t0.data();
+        set.buffers[1].tangents[1] = t1.data();
+        ad::ParamReader<ad::Dual<float, 2>> fwd(&set);
+        const Vec3<ad::Dual<float, 2>> f0 = depth<ad::Dual<float, 2>>(fwd, plain_field, a, b, q),
+                                        f1 = depth<ad::Dual<float, 2>>(fwd, table_field, a, b, q);
+        // reverse mode: the gradient of the three channels' sum
+        std::vector<float> g[2];
+        float v[2];
+        for (int k = 0; k < 2; ++k) {
+          g[k].assign(raw.size(), 0.0f);
+          set.buffers[1].gradient = g[k].data();
+          ad::Tape<float> tape(1 << 14);
+          std::vector<ad::LeafRecord> log(1 << 12);
+          ad::ParamReader<ad::Var<float>> rev(&set, &tape, log.data(), std::int32_t(log.size()));
+          const Vec3<ad::Var<float>> d = depth<ad::Var<float>>(rev, k ? table_field : plain_field, a, b, q);
+          const ad::Var<float> y = d.x + d.y + d.z;
+          REQUIRE_FALSE(tape.overflowed());
+          tape.backward(y);
+          rev.scatter();
+          v[k] = y.value;
+        }
+        for (int ch = 0; ch < 3; ++ch) {
+          CHECK(bits(d0[ch]) == bits(d1[ch]));
+          CHECK(bits(f0[ch].value) == bits(f1[ch].value));
+          CHECK(bits(f0[ch].grad[0]) == bits(f1[ch].grad[0]));
+          CHECK(bits(f0[ch].grad[1]) == bits(f1[ch].grad[1]));
+        }
+        CHECK(bits(v[0]) == bits(v[1]));
+        std::size_t differing = 0;
+        for (std::size_t i = 0; i < raw.size(); ++i) differing += bits(g[0][i]) != bits(g[1][i]);
+        CHECK(differing == 0);
+        // a double pass evaluates softplus itself: a stale table (all zeros) changes nothing there
+        std::vector<float> zeros(table.size(), 0.0f);
+        AbsorptionField stale = plain_field;
+        stale.softplus_table = zeros.data();
+        ad::ParamReader<double> plain_d(&set);
+        const Vec3d e0 = depth<double>(plain_d, plain_field, a, b, q), e1 = depth<double>(plain_d, stale, a, b, q);
+        CHECK(e0 == e1);
+      }
+    }
+  }
 }

@@ -246,6 +246,21 @@ DT_HOST_DEVICE S softplus(const S& x) {
   return detail::unary(x, softplus(xv), sigmoid(xv));  // d log(1 + e^x) = σ(x) dx
 }
 
+// A unary function of x whose value v and slope dv/dx at x's value are looked
+// up rather than evaluated (a table of the function over the parameters x is
+// read from): for the AD types a node with that value and partial; for a plain
+// scalar the value alone. It gives the same bits as evaluating the function
+// in the pass when the table holds that function's values in the pass's
+// precision.
+template <class T, detail::enable_plain_t<T> = 0>
+DT_HOST_DEVICE DT_FORCEINLINE T known_unary(T /*x*/, T v, T /*slope*/) {
+  return v;
+}
+template <class S, detail::enable_ad_t<S> = 0>
+DT_HOST_DEVICE DT_FORCEINLINE S known_unary(const S& x, scalar_t<S> v, scalar_t<S> slope) {
+  return detail::unary(x, v, slope);
+}
+
 template <class S, detail::enable_ad_t<S> = 0>
 DT_HOST_DEVICE S abs(const S& x) {
   using T = scalar_t<S>;

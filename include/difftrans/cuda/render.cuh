@@ -74,6 +74,7 @@ class DeviceScene {
     v.mesh.records = nullptr;  // host memory; the device reads the arrays
     v.ior.values = ior_->data();
     v.absorption.params.values = absorption_->data();
+    v.absorption.softplus_table = nullptr;  // host memory; the device evaluates softplus
     v.environment.texels.values = environment_->data();
     return v;
   }

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <utility>
 #include <vector>
@@ -59,6 +60,47 @@ inline GroupClip vertex_and_ior_clip(float geometry, float ior) {
   c.caps[1] = ior;
   return c;
 }
+
+// The softplus table (scene::AbsorptionField::softplus_table) of a scene's raw
+// absorption, made again whenever the raw values differ from those it was
+// made from: the optimizers step absorption_raw in place, so a table kept
+// up to date by hand would be one forgotten call away from a stale sigma.
+// The comparison costs a pass over the raw values per view; the table saves
+// a softplus (a log1p and an exp) at every grid corner a sample reads. A
+// mutex guards views taken from several threads at once.
+class SoftplusTableCache {
+ public:
+  SoftplusTableCache() = default;
+  SoftplusTableCache(SoftplusTableCache&& other) noexcept {
+    const std::lock_guard<std::mutex> lock(other.mutex_);
+    raw_ = std::move(other.raw_);
+    table_ = std::move(other.table_);
+  }
+  SoftplusTableCache& operator=(SoftplusTableCache&& other) noexcept {
+    if (this != &other) {
+      const std::scoped_lock lock(mutex_, other.mutex_);
+      raw_ = std::move(other.raw_);
+      table_ = std::move(other.table_);
+    }
+    return *this;
+  }
+
+  // The table of `raw` (2 floats per value), valid until the next call with
+  // other values.
+  const float* table(const std::vector<float>& raw) const {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    if (table_.size() != 2 * raw.size() || raw_ != raw) {
+      raw_ = raw;
+      table_.resize(2 * raw.size());
+      scene::fill_softplus_table(raw.data(), raw.size(), table_.data());
+    }
+    return table_.data();
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  mutable std::vector<float> raw_, table_;
+};
 
 class HostScene {
  public:
@@ -156,6 +198,8 @@ class HostScene {
                                               buffer(param_absorption));
         break;
     }
+    if (v.absorption.kind != scene::AbsorptionKind::none && !absorption_raw.empty())
+      v.absorption.softplus_table = softplus_table_.table(absorption_raw);
     v.environment = environment_width > 0
                         ? scene::equirect_environment(environment.data(), environment_width, environment_height,
                                                       buffer(param_environment))
@@ -182,6 +226,7 @@ class HostScene {
  private:
   std::string name_ = "mesh";
   std::unique_ptr<HostAccel> accel_;
+  SoftplusTableCache softplus_table_;
 };
 
 // Gradient arrays for every parameter of a scene, sized to match.

@@ -3,9 +3,12 @@
 #pragma once
 
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
+#include <type_traits>
 
 #include "difftrans/ad/glm.hpp"
+#include "difftrans/ad/math.hpp"
 #include "difftrans/ad/param_source.hpp"
 
 namespace difftrans::scene {
@@ -32,6 +35,13 @@ struct AbsorptionField {
   ad::ParamSource params;  // raw parameters p (sigma = softplus(p))
   Vec3f lo{0.0f}, hi{1.0f};
   Vec3i res{2, 2, 2};  // grid vertices per axis, each >= 2
+  // Optional: softplus(p) and its slope sigmoid(p) of every raw parameter,
+  // interleaved (entries 2i and 2i + 1 for parameter i), made from
+  // params.values by fill_softplus_table. A float pass then reads sigma from
+  // it instead of evaluating softplus at each read (24 per grid cell a
+  // segment's samples enter), with the same bits; passes in another
+  // precision evaluate as without it. nullptr: evaluated at each read.
+  const float* softplus_table = nullptr;
 };
 
 // How a grid segment is integrated.
@@ -56,6 +66,15 @@ inline float raw_from_sigma(float sigma) {
 }
 
 inline AbsorptionField no_absorption() { return AbsorptionField{}; }
+
+// AbsorptionField::softplus_table of n raw parameters into table (2n floats),
+// with the functions the passes evaluate.
+inline void fill_softplus_table(const float* raw, std::size_t n, float* table) {
+  for (std::size_t i = 0; i < n; ++i) {
+    table[2 * i] = ad::softplus(raw[i]);
+    table[2 * i + 1] = ad::sigmoid(raw[i]);
+  }
+}
 
 inline AbsorptionField homogeneous_absorption(const float* raw_rgb, int buffer = -1) {
   AbsorptionField f;
@@ -83,6 +102,17 @@ DT_HOST_DEVICE constexpr std::int32_t grid_index(const Vec3i& res, int i, int j,
 
 namespace detail {
 
+// sigma = softplus(p) of raw parameter i, from the field's table when it has
+// one and the pass is in float.
+template <class S, class Reader>
+DT_HOST_DEVICE DT_FORCEINLINE S sigma_of_parameter(Reader& reader, const AbsorptionField& f, std::int32_t i) {
+  const S p = ad::load<S>(reader, f.params, i);
+  if constexpr (std::is_same_v<ad::scalar_t<S>, float>) {
+    if (f.softplus_table) return ad::known_unary(p, f.softplus_table[2 * i], f.softplus_table[2 * i + 1]);
+  }
+  return softplus(p);
+}
+
 // The 8 corners' sigma (RGB) of one grid cell, read and mapped through softplus.
 template <class S>
 struct CellSigma {
@@ -96,7 +126,7 @@ DT_HOST_DEVICE void read_cell(Reader& reader, const AbsorptionField& f, const Ve
   for (int c = 0; c < 8; ++c) {
     const int i = cell.x + (c & 1), j = cell.y + ((c >> 1) & 1), k = cell.z + ((c >> 2) & 1);
     const std::int32_t base = grid_index(f.res, i, j, k, 0);
-    for (int ch = 0; ch < 3; ++ch) out.corner[c][ch] = softplus(ad::load<S>(reader, f.params, base + ch));
+    for (int ch = 0; ch < 3; ++ch) out.corner[c][ch] = sigma_of_parameter<S>(reader, f, base + ch);
   }
 }
 
@@ -356,8 +386,8 @@ DT_HOST_DEVICE Vec3<S> sigma_at(Reader& reader, const AbsorptionField& f, const 
   using T = ad::scalar_t<S>;
   if (f.kind == AbsorptionKind::none) return Vec3<S>(S(0), S(0), S(0));
   if (f.kind == AbsorptionKind::homogeneous) {
-    const Vec3<S> p = ad::load3<S>(reader, f.params, 0);
-    return Vec3<S>(softplus(p.x), softplus(p.y), softplus(p.z));
+    return Vec3<S>(detail::sigma_of_parameter<S>(reader, f, 0), detail::sigma_of_parameter<S>(reader, f, 1),
+                   detail::sigma_of_parameter<S>(reader, f, 2));
   }
   const Vec3<T> xv = ad::value_of(x);
   for (int ax = 0; ax < 3; ++ax)
