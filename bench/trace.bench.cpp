@@ -149,7 +149,7 @@ void accel_alone(benchmark::State& state, std::string name, int depth) {
 // softplus_table false: σ = softplus(raw) evaluated at every grid corner a
 // sample reads, not read from the scene's table (AbsorptionField::softplus_table).
 void primal(benchmark::State& state, std::string name, dr::TraceSettings ts, Absorption absorption,
-            bool records, bool softplus_table = true) {
+            bool records, bool softplus_table) {
   Workload& w = workload(name);
   set_absorption(*w.scene, absorption);
   dr::SceneView view = w.scene->view(false);
@@ -171,7 +171,7 @@ void primal(benchmark::State& state, std::string name, dr::TraceSettings ts, Abs
 enum class TapeMode { whole, streamed, recomputed };
 
 void gradient(benchmark::State& state, std::string name, dr::TraceSettings ts, Absorption absorption,
-              TapeMode mode, bool softplus_table = true) {
+              TapeMode mode, bool softplus_table) {
   using V = ad::Var<float>;
   Workload& w = workload(name);
   set_absorption(*w.scene, absorption);
@@ -252,13 +252,13 @@ int main(int argc, char** argv) {
     for (int depth : {4, 8}) {
       const std::string prefix = name + "/d" + std::to_string(depth) + "/";
       benchmark::RegisterBenchmark((prefix + baseline).c_str(), accel_alone, name, depth)->Unit(benchmark::kMillisecond);
-      benchmark::RegisterBenchmark((prefix + "primal").c_str(), primal, name, settings(depth), Absorption::none, true)
+      benchmark::RegisterBenchmark((prefix + "primal").c_str(), primal, name, settings(depth), Absorption::none, true, true)
           ->Unit(benchmark::kMillisecond);
       benchmark::RegisterBenchmark((prefix + "primal_arrays").c_str(), primal, name, settings(depth),
-                                   Absorption::none, false)
+                                   Absorption::none, false, true)
           ->Unit(benchmark::kMillisecond);
       benchmark::RegisterBenchmark((prefix + "gradient").c_str(), gradient, name, settings(depth),
-                                   Absorption::none, TapeMode::whole)
+                                   Absorption::none, TapeMode::whole, true)
           ->Unit(benchmark::kMillisecond);
       benchmark::RegisterBenchmark((prefix + "dual_ior").c_str(), dual_ior, name, depth)->Unit(benchmark::kMillisecond);
       groups.emplace_back(prefix, prefix + baseline);
@@ -273,12 +273,13 @@ int main(int argc, char** argv) {
                                                        {"grid16", Absorption::grid16}};
   for (const auto& [label, model] : models) {
     const std::string prefix = std::string("horse/absorption/") + label + "/";
-    benchmark::RegisterBenchmark((prefix + "primal").c_str(), primal, "horse", training_settings(), model, true)
+    benchmark::RegisterBenchmark((prefix + "primal").c_str(), primal, "horse", training_settings(), model, true, true)
         ->Unit(benchmark::kMillisecond);
-    benchmark::RegisterBenchmark((prefix + "gradient").c_str(), gradient, "horse", training_settings(), model, TapeMode::whole)
+    benchmark::RegisterBenchmark((prefix + "gradient").c_str(), gradient, "horse", training_settings(), model, TapeMode::whole,
+                                 true)
         ->Unit(benchmark::kMillisecond);
     benchmark::RegisterBenchmark((prefix + "recomputed").c_str(), gradient, "horse", training_settings(), model,
-                                 TapeMode::recomputed)
+                                 TapeMode::recomputed, true)
         ->Unit(benchmark::kMillisecond);
     if (model == Absorption::grid4 || model == Absorption::grid16) {  // what the softplus table saves a grid
       benchmark::RegisterBenchmark((prefix + "primal_untabled").c_str(), primal, "horse", training_settings(), model,
@@ -299,7 +300,7 @@ int main(int argc, char** argv) {
     dr::TraceSettings roulette = settings(16);
     roulette.roulette = true;
     roulette.prune_throughput = 0.01f;
-    benchmark::RegisterBenchmark((prefix + "primal").c_str(), primal, name, settings(16), Absorption::none, true)
+    benchmark::RegisterBenchmark((prefix + "primal").c_str(), primal, name, settings(16), Absorption::none, true, true)
         ->Unit(benchmark::kMillisecond);
     const std::pair<const char*, dr::TraceSettings> variants[] = {
         {"", settings(16)}, {"_roulette", roulette}, {"_training", training_settings()}};
@@ -307,7 +308,7 @@ int main(int argc, char** argv) {
         {"gradient", TapeMode::whole}, {"streamed", TapeMode::streamed}, {"recomputed", TapeMode::recomputed}};
     for (const auto& [label, mode] : modes)
       for (const auto& [suffix, ts] : variants)
-        benchmark::RegisterBenchmark((prefix + label + suffix).c_str(), gradient, name, ts, Absorption::none, mode)
+        benchmark::RegisterBenchmark((prefix + label + suffix).c_str(), gradient, name, ts, Absorption::none, mode, true)
             ->Unit(benchmark::kMillisecond);
     groups.emplace_back(prefix, prefix + "primal");
   }
