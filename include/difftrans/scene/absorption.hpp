@@ -1,5 +1,9 @@
 // Absorption inside the object (Beer–Lambert): none, homogeneous RGB, or an RGB
 // grid over the object's box; transmittance of straight segments, generic over S.
+// Length: the exact and the sampled integrals, the pieces the recomputed
+// gradient sweeps apart (the interval, a cell's corners, one sample's share)
+// and the corner reads with their softplus table share one cell walk and
+// one parameterization, so they stay together.
 #pragma once
 
 #include <cmath>
