@@ -572,21 +572,28 @@ io::Json materials_stage(const io::Scene& scene, RunFolder& folder, const pipeli
         const io::Material gt = io::read_material(scene.gt.material);
         const std::vector<Vec3f> inside =
             metrics::interior_points(gt_mesh.positions, gt_mesh.triangles, absorption_error_lattice);
-        const auto e = metrics::absorption_error(
-            inside,
-            [&](const Vec3f& p) {
-              return mat.absorption == io::AbsorptionType::grid          ? metrics::grid_sigma_at(mat.grid, p)
-                     : mat.absorption == io::AbsorptionType::homogeneous ? mat.sigma
-                                                                         : Vec3f(0.0f);
-            },
-            [&](const Vec3f& p) {
-              return gt.absorption == io::AbsorptionType::grid          ? metrics::grid_sigma_at(gt.grid, p)
-                     : gt.absorption == io::AbsorptionType::homogeneous ? gt.sigma
-                                                                        : Vec3f(0.0f);
-            });
+        const auto fitted = [&](const Vec3f& p) {
+          return mat.absorption == io::AbsorptionType::grid          ? metrics::grid_sigma_at(mat.grid, p)
+                 : mat.absorption == io::AbsorptionType::homogeneous ? mat.sigma
+                                                                     : Vec3f(0.0f);
+        };
+        const auto truth = [&](const Vec3f& p) {
+          return gt.absorption == io::AbsorptionType::grid          ? metrics::grid_sigma_at(gt.grid, p)
+                 : gt.absorption == io::AbsorptionType::homogeneous ? gt.sigma
+                                                                    : Vec3f(0.0f);
+        };
+        const auto e = metrics::absorption_error(inside, fitted, truth);
         j["absorption_error"] = {{"relative", e.relative},        {"mean_relative", e.mean_relative},
                                  {"mean_true", e.mean_true},      {"mean_fit", e.mean_fit},
                                  {"mean_absolute", e.mean_abs},   {"points", e.points}};
+        // where along the height it lies (docs/metrics.md): 8 slabs of the object along y
+        const metrics::AbsorptionSlabs slabs = metrics::absorption_slabs(inside, fitted, truth, 1, 8);
+        j["absorption_error"]["slabs"] = {{"axis", "y"},
+                                          {"from", slabs.slabs.from},
+                                          {"to", slabs.slabs.to},
+                                          {"points", slabs.points},
+                                          {"mean_true", slabs.mean_true},
+                                          {"mean_fit", slabs.mean_fit}};
       }
     }
   } catch (const std::exception& e) {

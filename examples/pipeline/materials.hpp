@@ -94,11 +94,12 @@ inline const std::array<const char*, 3>& enum_names(IorWithVertices) {
 }
 
 // When the unseen sky's factor is fitted (Stage2Config::unseen_sky): never,
-// always, or when the absorption model fitted is homogeneous (given, or
-// chosen: the choice itself sees the sky as the map has it).
-enum class UnseenSky : int { off, on, homogeneous };
-inline const std::array<const char*, 3>& enum_names(UnseenSky) {
-  static const std::array<const char*, 3> names{"off", "on", "homogeneous"};
+// always, when the absorption model fitted is homogeneous, or when it is
+// any absorption (homogeneous or a grid; given, or chosen: with these two
+// the choice itself sees the sky as the map has it).
+enum class UnseenSky : int { off, on, homogeneous, absorbing };
+inline const std::array<const char*, 4>& enum_names(UnseenSky) {
+  static const std::array<const char*, 4> names{"off", "on", "homogeneous", "absorbing"};
   return names;
 }
 
@@ -235,6 +236,16 @@ struct Stage2Config {
   // mesh and map (absorption error, docs/metrics.md), from a search start at
   // 13.6 %: 22.2 % after the fit at 2e-2, 15.5 % at 5e-3.
   float lr_absorption = 5e-3f;
+  // A grid's rate (raw parameters). Its vertices each see the rays through
+  // their own cells only, so their gradient is noisier than a homogeneous
+  // σ's and Adam's steps fall well short of the rate; and the grid has to
+  // grow the object's colour differences from the search's grey start. At
+  // lr_absorption it did not: monkey-bands on its true mesh and map (16³,
+  // the materials alone, 1200 iterations) ended at an absorption error of
+  // 24.6 % with the strong bands at 3.1–3.9 for a true 5 and the IoR 0.016
+  // off; at 2e-2, 11.6 % and 0.0014 (docs/stage2-diagnostics.md, "A grid
+  // needs its own rate").
+  float lr_absorption_grid = 2e-2f;
   float lr_positions = 1e-3f;
   float beta1_positions = 0.9f;   // the vertices' Adam momentum: 0.99 averages the noisy gradient over ~100 steps
   // The vertex rate falls along a cosine from 1 to this fraction over the
@@ -638,8 +649,12 @@ struct Stage2Config {
     v(Field{"mask_views", "", "views per mask step"}, c.mask_views);
     v(Field{"lr_ior_frozen", "", "IoR learning rate in the warm-up"}, c.lr_ior_frozen);
     v(Field{"lr_ior", "--materials-lr-ior", "IoR learning rate after the warm-up", 0, 10}, c.lr_ior);
-    v(Field{"lr_absorption", "--materials-lr-absorption", "absorption learning rate (raw parameters)", 0, 10},
+    v(Field{"lr_absorption", "--materials-lr-absorption",
+            "learning rate of a homogeneous absorption (raw parameters)", 0, 10},
       c.lr_absorption);
+    v(Field{"lr_absorption_grid", "--materials-lr-absorption-grid",
+            "learning rate of an absorption grid (raw parameters)", 0, 10},
+      c.lr_absorption_grid);
     v(Field{"lr_vertices", "--materials-lr-vertices", "vertex learning rate (with --materials-geometry)", 0, 10},
       c.lr_positions);
     v(Field{"beta1_vertices", "--materials-beta1-vertices", "Adam momentum of the vertices", 0, 0.9999},
@@ -767,7 +782,7 @@ struct Stage2Config {
       c.glint_factor);
     v(Field{"unseen_sky", "--materials-unseen-sky",
             "scale the map's texels that no background pixel saw by an RGB factor fitted with the materials: off, "
-            "on, or homogeneous (when the absorption fitted is one sigma)"},
+            "on, homogeneous (when the absorption fitted is one sigma) or absorbing (when it is any absorption)"},
       c.unseen_sky);
     v(Field{"lr_sky", "", "learning rate of the unseen sky's factor (its logarithm)"}, c.lr_sky);
     v(Field{"clip_geometry", "", "per-ray clip of the vertex gradient's norm (0: off)"}, c.clip_geometry);
@@ -930,6 +945,9 @@ class Stage2 {
       case UnseenSky::on: return true;
       case UnseenSky::homogeneous:  // once the model is known: given, or chosen
         return scene_.absorption_kind == scene::AbsorptionKind::homogeneous &&
+               (config_.absorption_model != AbsorptionModel::automatic || !choice_.empty());
+      case UnseenSky::absorbing:
+        return scene_.absorption_kind != scene::AbsorptionKind::none &&
                (config_.absorption_model != AbsorptionModel::automatic || !choice_.empty());
     }
     return false;
@@ -1297,9 +1315,11 @@ class Stage2 {
     if (it == 0 && config_.scans_ior() && ior_scan_.is_null()) start_ior();
     if (it == 0 && choosing()) {
       choose_absorption();
-      // unseen_sky homogeneous, one σ chosen: the absorption and the sky
-      // start where the two halves of the pixels agree (search_sigma)
-      if (config_.unseen_sky == UnseenSky::homogeneous && sky_fitted() && !config_.sigma_search.empty())
+      // unseen_sky homogeneous (one σ chosen) or absorbing (any absorption
+      // chosen): the absorption and the sky start where the two halves of
+      // the pixels agree (search_sigma), as when the model is given
+      if ((config_.unseen_sky == UnseenSky::homogeneous || config_.unseen_sky == UnseenSky::absorbing) &&
+          sky_fitted() && !config_.sigma_search.empty())
         search_sigma();
     }
     const bool absorbing = absorption_fitted();
@@ -1414,7 +1434,9 @@ class Stage2 {
     if (absorbing && absorption_moving) {
       for (float& g : grad.absorption)
         if (!std::isfinite(g)) g = 0.0f;
-      absorption_adam_.step(scene_.absorption_raw.data(), grad.absorption.data(), decay * config_.lr_absorption);
+      const float rate =
+          scene_.absorption_kind == scene::AbsorptionKind::grid ? config_.lr_absorption_grid : config_.lr_absorption;
+      absorption_adam_.step(scene_.absorption_raw.data(), grad.absorption.data(), decay * rate);
     }
     if (st.geometry_moving) {
       for (float& g : grad.positions)

@@ -2,6 +2,7 @@
 // and the per-channel relative error inside the true object.
 #include "difftrans/metrics/absorption.hpp"
 
+#include <array>
 #include <cmath>
 #include <cstddef>
 #include <stdexcept>
@@ -80,4 +81,41 @@ TEST_CASE("absorption error: per channel, the mean absolute error over the true 
   CHECK(e.mean_relative == doctest::Approx(0.1)); // the two absorbing channels
   CHECK(e.mean_fit[0] == doctest::Approx(1.1));
   CHECK(difftrans::metrics::absorption_error({}, fit, truth).points == 0);
+}
+
+TEST_CASE("absorption slabs: the error found in the slab that holds it") {
+  // 100 points on a line along y from -0.495 to 0.495 (slabs 0.2475 high,
+  // no point on a slab's edge); the fit is right except above y = 0.25
+  std::vector<Vec3f> points;
+  for (int i = 0; i < 100; ++i) points.push_back(Vec3f(0.1f, -0.495f + 0.01f * float(i), -0.2f));
+  const auto truth = [](const Vec3f& p) { return p.y < 0.0f ? Vec3f(5.0f, 2.0f, 0.5f) : Vec3f(0.5f, 2.0f, 5.0f); };
+  const auto fit = [&](const Vec3f& p) { return p.y > 0.25f ? truth(p) * 0.5f : truth(p); };
+  const difftrans::metrics::AbsorptionSlabs s = difftrans::metrics::absorption_slabs(points, fit, truth, 1, 4);
+  REQUIRE(s.points.size() == 4);
+  CHECK(s.slabs.from == doctest::Approx(-0.495));
+  CHECK(s.slabs.to == doctest::Approx(0.495));
+  std::size_t total = 0;
+  for (std::size_t n : s.points) total += n;
+  CHECK(total == points.size());
+  for (std::size_t b = 0; b < 4; ++b) {
+    CAPTURE(b);
+    const double lower_band = b < 2 ? 5.0 : 0.5;
+    CHECK(s.mean_true[b][0] == doctest::Approx(lower_band));
+    if (b < 3) {
+      for (std::size_t c = 0; c < 3; ++c) CHECK(s.mean_fit[b][c] == doctest::Approx(s.mean_true[b][c]));
+    } else {
+      for (std::size_t c = 0; c < 3; ++c) CHECK(s.mean_fit[b][c] == doctest::Approx(0.5 * s.mean_true[b][c]));
+    }
+  }
+  // the points-weighted means over the slabs are the whole field's
+  const difftrans::metrics::AbsorptionError e = difftrans::metrics::absorption_error(points, fit, truth);
+  for (std::size_t c = 0; c < 3; ++c) {
+    double t = 0.0, f = 0.0;
+    for (std::size_t b = 0; b < 4; ++b) {
+      t += s.mean_true[b][c] * double(s.points[b]);
+      f += s.mean_fit[b][c] * double(s.points[b]);
+    }
+    CHECK(t / double(total) == doctest::Approx(e.mean_true[c]));
+    CHECK(f / double(total) == doctest::Approx(e.mean_fit[c]));
+  }
 }

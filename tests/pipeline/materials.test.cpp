@@ -121,7 +121,7 @@ TEST_CASE("stage 2 recovers IoR and absorption on a glass sphere (geometry known
   cfg.box_hi = Vec3f(0.45f);
   cfg.lr_ior_frozen = 1e-4f;
   cfg.lr_ior = 3e-3f;
-  cfg.lr_absorption = 5e-2f;
+  cfg.lr_absorption_grid = 5e-2f;
   cfg.lr_decay = 1e-3f;  // a short run: settle the noisy single-ray estimates
   bool searched = true;
   SUBCASE("the absorption starts from the grey value that fits best") {
@@ -172,6 +172,37 @@ TEST_CASE("stage 2 recovers IoR and absorption on a glass sphere (geometry known
   CHECK(sig.x < sig.y);
   CHECK(sig.y < sig.z);
   for (int c = 0; c < 3; ++c) CHECK(std::abs(sig[c] - sigma_true[c]) < 0.2f * sigma_true[c]);
+}
+
+TEST_CASE("a grid steps at lr_absorption_grid, a homogeneous absorption at lr_absorption") {
+  const dr::HostScene truth = glass_sphere(1.45f, Vec3f(0.5f, 1.0f, 1.5f));
+  const Photos photos = photograph(truth, 4, 24);
+  const auto raw_after = [&](pipeline::AbsorptionModel model, float homogeneous_rate, float grid_rate) {
+    dr::HostScene s = glass_sphere(1.45f, Vec3f(0.0f));
+    pipeline::Stage2Config cfg;
+    cfg.absorption_model = model;
+    cfg.absorption_res = 3;
+    cfg.optimize_positions = false;
+    cfg.optimize_ior = false;
+    cfg.ior_settle_batches = 0;
+    cfg.sigma_search.clear();  // from sigma_init: the start is the same whatever the rates
+    cfg.iterations = 4;
+    cfg.rays_per_iteration = 256;
+    cfg.lr_absorption = homogeneous_rate;
+    cfg.lr_absorption_grid = grid_rate;
+    pipeline::Stage2 st(s, views_of(photos), {}, cfg);
+    const std::vector<float> start = s.absorption_raw;
+    while (!st.done()) st.step();
+    double moved = 0.0;
+    REQUIRE(s.absorption_raw.size() == start.size());
+    for (std::size_t k = 0; k < start.size(); ++k) moved += std::abs(double(s.absorption_raw[k]) - double(start[k]));
+    return moved;
+  };
+  using M = pipeline::AbsorptionModel;
+  CHECK(raw_after(M::grid, 0.0f, 2e-2f) > 0.0);
+  CHECK(raw_after(M::grid, 2e-2f, 0.0f) == 0.0);  // a grid ignores the homogeneous rate
+  CHECK(raw_after(M::homogeneous, 2e-2f, 0.0f) > 0.0);
+  CHECK(raw_after(M::homogeneous, 0.0f, 2e-2f) == 0.0);  // and the homogeneous σ the grid's
 }
 
 TEST_CASE("stage 2 settles the IoR at the zero of the IoR gradient's line over fixed batches") {
@@ -390,7 +421,7 @@ TEST_CASE("stage 2 fits the sky no background pixel saw") {
     cfg.absorption_res = 4;
     cfg.box_lo = Vec3f(-0.45f);
     cfg.box_hi = Vec3f(0.45f);
-    cfg.lr_absorption = 2e-2f;
+    cfg.lr_absorption_grid = 2e-2f;
     cfg.lr_sky = 2e-2f;
     cfg.unseen_sky = sky ? pipeline::UnseenSky::on : pipeline::UnseenSky::off;
     pipeline::Stage2 st(s, views_of(photos), {}, cfg);
@@ -467,6 +498,49 @@ TEST_CASE("unseen_sky homogeneous: the sky's factor is fitted when the absorptio
   REQUIRE(none.absorption_choice()["chosen"] == "none");
   CHECK_FALSE(none.sky_fitted());
   CHECK(none.unseen_sky_scale() == Vec3f(1.0f));
+}
+
+TEST_CASE("unseen_sky absorbing: the sky's factor is fitted with any absorption, a grid too, and never without one") {
+  const int W = 64, H = 32, unseen_rows = H / 3;
+  std::vector<std::uint8_t> seen(std::size_t(W * H), 1);
+  for (int t = 0; t < W * unseen_rows; ++t) seen[std::size_t(t)] = 0;
+  pipeline::Stage2Config cfg;
+  cfg.optimize_positions = false;
+  cfg.unseen_sky = pipeline::UnseenSky::absorbing;
+  cfg.rays_per_iteration = 512;
+  cfg.absorption_res = 4;
+  cfg.box_lo = Vec3f(-0.45f);
+  cfg.box_hi = Vec3f(0.45f);
+  const auto model = [&](pipeline::AbsorptionModel m) {
+    pipeline::Stage2Config c = cfg;
+    c.absorption_model = m;
+    return c;
+  };
+  const Photos photos = photograph(glass_sphere(1.45f, Vec3f(0.5f, 1.0f, 1.5f)), 6, 24);
+  dr::HostScene a = glass_sphere(1.45f, Vec3f(0.0f)), b = glass_sphere(1.45f, Vec3f(0.0f)),
+                c = glass_sphere(1.45f, Vec3f(0.0f)), d = glass_sphere(1.45f, Vec3f(0.0f));
+  pipeline::Stage2 grid(a, views_of(photos), {}, model(pipeline::AbsorptionModel::grid));
+  pipeline::Stage2 homogeneous(b, views_of(photos), {}, model(pipeline::AbsorptionModel::homogeneous));
+  pipeline::Stage2 none(c, views_of(photos), {}, model(pipeline::AbsorptionModel::none));
+  pipeline::Stage2 chosen(d, views_of(photos), {}, model(pipeline::AbsorptionModel::automatic));
+  for (pipeline::Stage2* st : {&grid, &homogeneous, &none, &chosen}) st->set_seen_texels(seen);
+  CHECK(grid.sky_fitted());
+  CHECK(homogeneous.sky_fitted());
+  CHECK_FALSE(none.sky_fitted());
+  CHECK_FALSE(chosen.sky_fitted());  // not before the choice
+  grid.step();
+  CHECK(std::isfinite(grid.searched_sky().x));  // the grid and the sky start from the split search
+  for (int i = 0; i < 3; ++i) grid.step();
+  CHECK(grid.unseen_sky_scale() != Vec3f(1.0f));  // and the factor moves with the materials
+  // the same grid under unseen_sky homogeneous keeps the map as it is
+  pipeline::Stage2Config h = model(pipeline::AbsorptionModel::grid);
+  h.unseen_sky = pipeline::UnseenSky::homogeneous;
+  dr::HostScene e = glass_sphere(1.45f, Vec3f(0.0f));
+  pipeline::Stage2 grid_h(e, views_of(photos), {}, h);
+  grid_h.set_seen_texels(seen);
+  for (int i = 0; i < 4; ++i) grid_h.step();
+  CHECK_FALSE(grid_h.sky_fitted());
+  CHECK(grid_h.unseen_sky_scale() == Vec3f(1.0f));
 }
 
 TEST_CASE("Stage2::fixed_loss: the same rays at every call, lower on the true surface, the scene left as it was") {

@@ -20,6 +20,7 @@
 
 #include "difftrans/ad/glm.hpp"
 #include "difftrans/io/presets.hpp"
+#include "difftrans/metrics/chamfer.hpp"
 
 namespace difftrans::metrics {
 
@@ -130,6 +131,45 @@ AbsorptionError absorption_error(const std::vector<Vec3f>& points, const Fit& fi
   }
   if (counted) e.mean_relative /= double(counted);
   return e;
+}
+
+// Where the absorption error lies along one axis: the points cut into
+// equal slabs of their extent along it (slabs_over), and per slab the
+// number of points and the mean true and fitted σ per channel. A band fitted
+// too pale, a part too dark, or a part no ray reached, shows as the slabs
+// where the two means part; the points-weighted mean of a column over the
+// slabs is the whole field's mean (AbsorptionError::mean_true, mean_fit).
+struct AbsorptionSlabs {
+  Slabs slabs;
+  std::vector<std::size_t> points;                // per slab
+  std::vector<std::array<double, 3>> mean_true, mean_fit;  // per slab, per channel (0 in an empty slab)
+};
+
+template <class Fit, class Truth>
+AbsorptionSlabs absorption_slabs(const std::vector<Vec3f>& points, const Fit& fit, const Truth& truth, int axis,
+                                 int count) {
+  AbsorptionSlabs out;
+  out.slabs = slabs_over(points, axis, count);
+  const std::size_t n = std::size_t(count);
+  out.points.assign(n, 0);
+  out.mean_true.assign(n, std::array<double, 3>{});
+  out.mean_fit.assign(n, std::array<double, 3>{});
+  for (const Vec3f& p : points) {
+    const std::size_t b = std::size_t(out.slabs.of(double(p[axis])));
+    const Vec3f f = fit(p), t = truth(p);
+    ++out.points[b];
+    for (int c = 0; c < 3; ++c) {
+      out.mean_true[b][std::size_t(c)] += double(t[c]);
+      out.mean_fit[b][std::size_t(c)] += double(f[c]);
+    }
+  }
+  for (std::size_t b = 0; b < n; ++b)
+    for (std::size_t c = 0; c < 3; ++c)
+      if (out.points[b]) {
+        out.mean_true[b][c] /= double(out.points[b]);
+        out.mean_fit[b][c] /= double(out.points[b]);
+      }
+  return out;
 }
 
 }  // namespace difftrans::metrics
