@@ -529,7 +529,9 @@ TEST_CASE("unseen_sky absorbing: the sky's factor is fitted with any absorption,
   CHECK_FALSE(none.sky_fitted());
   CHECK_FALSE(chosen.sky_fitted());  // not before the choice
   grid.step();
-  CHECK(std::isfinite(grid.searched_sky().x));  // the grid and the sky start from the split search
+  CHECK(std::isnan(grid.searched_sky().x));  // a grid: no split search, the factor starts at 1
+  homogeneous.step();
+  CHECK(std::isfinite(homogeneous.searched_sky().x));  // one σ: the split search starts the factor
   for (int i = 0; i < 3; ++i) grid.step();
   CHECK(grid.unseen_sky_scale() != Vec3f(1.0f));  // and the factor moves with the materials
   // the same grid under unseen_sky homogeneous keeps the map as it is
